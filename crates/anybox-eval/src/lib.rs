@@ -1,0 +1,1 @@
+//! Evaluation of 9-DoF box estimates (SPEC §4).

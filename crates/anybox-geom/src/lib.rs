@@ -1,0 +1,21 @@
+//! Box geometry for anybox.
+//!
+//! Conventions (SPEC §2), used by every anybox crate:
+//! - Camera frame: OpenCV, x right, y down, z forward. Pixel `(u, v)` of a camera point
+//!   `(x, y, z)` is `(fx·x/z + cx, fy·y/z + cy)`; pixel centres sit at integer coordinates.
+//! - Units: **millimetres** for every length (`*_mm` in names), radians for angles unless a
+//!   name says `_deg`.
+//! - A box ([`OrientedBox`]) is `R` (box frame → camera; the columns of `R` are the box axes in
+//!   camera coordinates), `t` (box centre in camera coordinates, mm) and `size` (full extents
+//!   along the box's own x, y, z, mm).
+
+pub mod camera;
+pub mod cuboid;
+pub mod error;
+
+pub use camera::Intrinsics;
+pub use cuboid::OrientedBox;
+pub use error::GeomError;
+
+/// Re-exported so that users need no direct `nalgebra` dependency for the basic types.
+pub use nalgebra;

@@ -1,0 +1,1 @@
+//! Synthetic warehouse-like RGB-D scenes in BOP layout (SPEC §5).
