@@ -1,4 +1,30 @@
-//! anybox: zero-shot 9-DoF box pose and size from one RGB-D frame.
+//! anybox: zero-shot 9-DoF box pose and size from one RGB-D frame (the AnyBox method), on a CPU.
+//!
+//! The modules follow the pipeline of SPEC §1, in order:
+//! 1. frame and camera I/O — [`io`] (the `anybox-io` crate);
+//! 2. [`segmentation`] — where instance masks come from;
+//! 3. [`observation`] and [`hypotheses`] — masked depth → 3D points → pose hypotheses;
+//! 4. [`depth_filter`] — the paper's depth-consistency filter;
+//! 5. [`refine`] and [`pose`] — robust ICP to the cuboid, confidence, ranking;
+//! 6. [`scale`] (with [`silhouette`] and [`context`]) — Algorithms 1 and 2, hidden dimensions;
+//! 7. [`pipeline`] — one mask or one frame in, boxes out. [`config`] holds every parameter.
+//!
+//! Evaluation ([`eval`]) and the synthetic generator ([`synth`]) are their own crates,
+//! re-exported here.
+
+pub mod config;
+pub mod context;
+pub mod depth_filter;
+pub mod error;
+pub mod hypotheses;
+pub mod observation;
+pub mod overlay;
+pub mod pipeline;
+pub mod pose;
+pub mod refine;
+pub mod scale;
+pub mod segmentation;
+pub mod silhouette;
 
 pub use anybox_eval as eval;
 pub use anybox_geom as geom;
