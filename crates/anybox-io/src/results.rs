@@ -1,0 +1,1 @@
+//! anybox results JSON and the BOP19 CSV.
