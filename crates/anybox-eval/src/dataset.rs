@@ -1,0 +1,195 @@
+//! Evaluating a results file against a BOP dataset split (`anybox eval`).
+//!
+//! In: a BOP dataset root and split (read with `anybox_io::bop::BopDataset`), and an anybox
+//! results JSON (`anybox_io::results`). Out: the [`Report`] of [`evaluate`].
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use anybox_io::bop::BopDataset;
+use anybox_io::IoError;
+use rayon::prelude::*;
+
+use crate::{evaluate, observed_dims, EstEntry, EvalOptions, GtEntry, Report};
+
+/// What can go wrong in [`evaluate_dataset`].
+#[derive(Debug, thiserror::Error)]
+pub enum EvalError {
+    /// Reading the dataset, a mask or the results file failed.
+    #[error(transparent)]
+    Io(#[from] IoError),
+    /// An estimate names an image that the dataset split does not have.
+    #[error(
+        "{}: estimate {index} is for scene {scene_id} image {im_id}, which split '{split}' of the dataset does not contain",
+        path.display()
+    )]
+    UnknownImage {
+        /// The results file.
+        path: PathBuf,
+        /// Position of the estimate in the file.
+        index: usize,
+        /// Its scene id.
+        scene_id: u32,
+        /// Its image id.
+        im_id: u32,
+        /// The split evaluated.
+        split: String,
+    },
+    /// An estimate's pose is not a valid box (rotation not orthonormal, size not positive …).
+    #[error("{}: estimate {index}: {reason}", path.display())]
+    BadEstimate {
+        /// The results file.
+        path: PathBuf,
+        /// Position of the estimate in the file.
+        index: usize,
+        /// What is wrong.
+        reason: String,
+    },
+    /// An option is out of range.
+    #[error("invalid evaluation option: {0}")]
+    BadOption(String),
+}
+
+/// Reads the ground truth of `dataset/split` and the estimates of `results`, and evaluates them.
+///
+/// When `opts.min_observed_dims > 0`, every ground truth's visible mask is loaded and
+/// [`observed_dims`] is computed from the true pose and the view's intrinsics.
+pub fn evaluate_dataset(
+    dataset: &Path,
+    split: &str,
+    results: &Path,
+    opts: &EvalOptions,
+) -> Result<Report, EvalError> {
+    if !(0.0..=1.0).contains(&opts.min_visib) {
+        return Err(EvalError::BadOption(format!(
+            "min_visib must be in 0..=1, got {}",
+            opts.min_visib
+        )));
+    }
+    if opts.min_observed_dims > 3 {
+        return Err(EvalError::BadOption(format!(
+            "min_observed_dims must be 0..=3, got {}",
+            opts.min_observed_dims
+        )));
+    }
+    let ds = BopDataset::open(dataset, split)?;
+    let gts = load_gts(&ds, opts.min_observed_dims > 0)?;
+    let ests = load_estimates(&ds, results)?;
+    Ok(evaluate(&gts, &ests, opts))
+}
+
+/// Ground truths of every view; with `with_dims`, observed dimensions from the masks.
+fn load_gts(ds: &BopDataset, with_dims: bool) -> Result<Vec<GtEntry>, EvalError> {
+    let per_view: Vec<Result<Vec<GtEntry>, EvalError>> = ds
+        .views
+        .par_iter()
+        .map(|view| {
+            view.gts
+                .iter()
+                .map(|g| {
+                    let observed = if with_dims {
+                        let mask = view.load_mask_visib(g.gt_index)?;
+                        Some(observed_dims(&g.pose, &mask, &view.intrinsics).count)
+                    } else {
+                        None
+                    };
+                    Ok(GtEntry {
+                        scene_id: view.scene_id,
+                        im_id: view.im_id,
+                        gt_index: g.gt_index,
+                        pose: g.pose,
+                        visib_fract: g.visib_fract,
+                        observed_dims: observed,
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    let mut out = Vec::with_capacity(ds.n_gt());
+    for v in per_view {
+        out.extend(v?);
+    }
+    Ok(out)
+}
+
+fn load_estimates(ds: &BopDataset, results: &Path) -> Result<Vec<EstEntry>, EvalError> {
+    let file = local_results::read_results(results)?;
+    let images: BTreeSet<(u32, u32)> = ds.views.iter().map(|v| (v.scene_id, v.im_id)).collect();
+    let mut out = Vec::with_capacity(file.estimates.len());
+    for (index, e) in file.estimates.iter().enumerate() {
+        if !images.contains(&(e.scene_id, e.im_id)) {
+            return Err(EvalError::UnknownImage {
+                path: results.to_path_buf(),
+                index,
+                scene_id: e.scene_id,
+                im_id: e.im_id,
+                split: ds.split.clone(),
+            });
+        }
+        let pose = e.pose().map_err(|err| EvalError::BadEstimate {
+            path: results.to_path_buf(),
+            index,
+            reason: err.to_string(),
+        })?;
+        if !e.score.is_finite() || pose.center_mm.iter().any(|v| !v.is_finite()) {
+            return Err(EvalError::BadEstimate {
+                path: results.to_path_buf(),
+                index,
+                reason: format!("score and t must be finite (score {})", e.score),
+            });
+        }
+        out.push(EstEntry {
+            scene_id: e.scene_id,
+            im_id: e.im_id,
+            score: e.score,
+            pose,
+            gt_index: e.gt_index,
+        });
+    }
+    Ok(out)
+}
+
+/// Stand-in for `anybox_io::results` until helper IO lands it (same JSON layout).
+mod local_results {
+    use std::path::Path;
+
+    use anybox_geom::{GeomError, OrientedBox};
+    use anybox_io::IoError;
+    use serde::Deserialize;
+
+    #[derive(Deserialize)]
+    pub struct EstimateRecord {
+        pub scene_id: u32,
+        pub im_id: u32,
+        pub score: f64,
+        #[serde(rename = "R")]
+        pub r: [f64; 9],
+        pub t: [f64; 3],
+        pub size: [f64; 3],
+        #[serde(default)]
+        pub gt_index: Option<usize>,
+    }
+
+    impl EstimateRecord {
+        pub fn pose(&self) -> Result<OrientedBox, GeomError> {
+            OrientedBox::from_arrays(self.r, self.t, self.size)
+        }
+    }
+
+    #[derive(Deserialize)]
+    pub struct ResultsFile {
+        pub estimates: Vec<EstimateRecord>,
+    }
+
+    pub fn read_results(path: &Path) -> Result<ResultsFile, IoError> {
+        let text = std::fs::read_to_string(path).map_err(|source| IoError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        serde_json::from_str(&text).map_err(|e| IoError::BadValue {
+            path: path.to_path_buf(),
+            context: "results JSON".to_string(),
+            reason: e.to_string(),
+        })
+    }
+}

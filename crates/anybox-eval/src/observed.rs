@@ -1,0 +1,87 @@
+//! How many of a box's three dimensions a view shows, from the true pose and the visible mask.
+//!
+//! Every mask pixel's viewing ray is intersected with the true box (slab test,
+//! `anybox_geom::projection::ray_box_intersection`);
+//! the face the ray enters through gets the pixel. A face is *observed* when it holds at least
+//! [`MIN_FACE_FRACTION`] of the mask pixels and at least [`MIN_FACE_PX`] pixels; a face whose
+//! normal is box axis k spans the two other axes, and a dimension is observed when an observed
+//! face spans it. A box seen flat from one side shows two dimensions: nothing in the image
+//! measures the third, so no method can be scored on it.
+
+use anybox_geom::nalgebra::Point3;
+use anybox_geom::projection::ray_box_intersection;
+use anybox_geom::{Intrinsics, OrientedBox};
+use anybox_io::Mask;
+use serde::{Deserialize, Serialize};
+
+/// A face must hold at least this fraction of the mask pixels to count as observed.
+pub const MIN_FACE_FRACTION: f64 = 0.05;
+
+/// A face must hold at least this many mask pixels to count as observed, px.
+pub const MIN_FACE_PX: usize = 30;
+
+/// What a view shows of a box.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ObservedDims {
+    /// Number of observed dimensions (0..=3).
+    pub count: u8,
+    /// Whether box axis x, y, z is observed.
+    pub axes: [bool; 3],
+    /// Fraction of the mask pixels whose ray enters through each face, in the order
+    /// −x, +x, −y, +y, −z, +z (box frame).
+    pub face_fractions: [f64; 6],
+}
+
+/// The face a camera ray through pixel centre `(u, v)` enters the box by: `(axis, positive)`.
+fn entry_face(b: &OrientedBox, k: &Intrinsics, u: f64, v: f64) -> Option<(usize, bool)> {
+    let dir = k.ray(u, v);
+    let (t_enter, _, axis) = ray_box_intersection(&Point3::origin(), &dir, b)?;
+    if t_enter <= 0.0 {
+        // The camera is inside the box: no face is seen from outside.
+        return None;
+    }
+    let local = b.to_local(&Point3::from(dir * t_enter));
+    Some((axis, local[axis] > 0.0))
+}
+
+/// Ray-casts the true box `pose` at every pixel of `mask_visib` and says which faces, hence which
+/// dimensions, the view shows (see the module docs for the rule).
+pub fn observed_dims(
+    pose: &OrientedBox,
+    mask_visib: &Mask,
+    intrinsics: &Intrinsics,
+) -> ObservedDims {
+    let mut counts = [0usize; 6];
+    let mut total = 0usize;
+    let w = mask_visib.width as usize;
+    for (i, &on) in mask_visib.data.iter().enumerate() {
+        if !on || w == 0 {
+            continue;
+        }
+        total += 1;
+        let (u, v) = ((i % w) as f64, (i / w) as f64);
+        if let Some((a, pos)) = entry_face(pose, intrinsics, u, v) {
+            counts[2 * a + usize::from(pos)] += 1;
+        }
+    }
+    let mut face_fractions = [0.0; 6];
+    let mut axes = [false; 3];
+    for f in 0..6 {
+        if total > 0 {
+            face_fractions[f] = counts[f] as f64 / total as f64;
+        }
+        if counts[f] >= MIN_FACE_PX && face_fractions[f] >= MIN_FACE_FRACTION {
+            let normal = f / 2;
+            for (a, seen) in axes.iter_mut().enumerate() {
+                if a != normal {
+                    *seen = true;
+                }
+            }
+        }
+    }
+    ObservedDims {
+        count: axes.iter().filter(|a| **a).count() as u8,
+        axes,
+        face_fractions,
+    }
+}
