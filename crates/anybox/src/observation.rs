@@ -1,1 +1,521 @@
-//! (stage module; being written)
+//! Masked depth → 3D observation (SPEC §1 "pose hypotheses", input side; paper §3.2).
+//!
+//! In: a depth map (mm, 0 = invalid), the camera [`Intrinsics`] and one instance [`Mask`] of the
+//! same size. Out: an [`Observation`] — the back-projected points (camera frame, mm) of the mask
+//! pixels with valid depth, their pixels, unit normals oriented toward the camera, and a few
+//! precomputed helpers that keep the pose loop cheap (a fixed subsample for scoring/ICP, the
+//! mask's row prefix sums for silhouette IoU).
+//!
+//! Outlier handling, in order:
+//! 1. *flying pixels*: a pixel whose depth differs from the median of its 3×3 in-mask valid
+//!    neighbourhood by more than `max(flying_abs_mm, flying_rel · z)` is dropped (mixed pixels at
+//!    depth edges, where a sensor interpolates between the box and the background);
+//! 2. *far outliers*: a robust distance-to-centroid cut — points farther from the component-wise
+//!    median than `median(d) + outlier_k · 1.4826 · MAD(d)` are dropped (segmentation leaks).
+//!
+//! Normals: PCA over the in-mask valid points of a `(2r+1)²` pixel window, closed-form 3×3
+//! eigen-solve (no iterative solver: this runs once per point).
+
+use anybox_geom::Intrinsics;
+use anybox_io::image::{DepthMap, Mask};
+use nalgebra::{Matrix3, Point3, Vector3};
+
+use crate::error::EstimateError;
+
+/// Parameters of [`observe`].
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct ObservationConfig {
+    /// Minimum number of usable 3D points; fewer gives [`EstimateError::TooFewPoints`]. Default 30
+    /// (a box face needs a few dozen points for a stable plane and normal).
+    pub min_points: usize,
+    /// Flying-pixel cut, absolute part, mm. Default 10 mm.
+    pub flying_abs_mm: f64,
+    /// Flying-pixel cut, relative part (fraction of the pixel's depth). Default 0.03 (3 %: a face
+    /// at 80° to the view ray changes depth by ~1 % of z per pixel at 600 px focal length).
+    pub flying_rel: f64,
+    /// Robust distance-to-centroid cut in MAD units. Default 3.5. Non-positive disables it.
+    pub outlier_k: f64,
+    /// Normal-estimation window radius, px (window `(2r+1)²`). Default 2.
+    pub normal_radius_px: u32,
+    /// Size of the fixed subsample used for scoring and ICP. Default 600.
+    pub max_subsample: usize,
+}
+
+impl Default for ObservationConfig {
+    fn default() -> Self {
+        Self {
+            min_points: 30,
+            flying_abs_mm: 10.0,
+            flying_rel: 0.03,
+            outlier_k: 3.5,
+            normal_radius_px: 2,
+            max_subsample: 600,
+        }
+    }
+}
+
+/// Row prefix sums of a mask over its bounding box: O(1) count of mask pixels in any row interval.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MaskRows {
+    /// Bounding box origin column, px.
+    pub u0: u32,
+    /// Bounding box origin row, px.
+    pub v0: u32,
+    /// Bounding box width, px.
+    pub width: u32,
+    /// Bounding box height, px.
+    pub height: u32,
+    /// `prefix[r * (width + 1) + k]` = mask pixels in row `v0 + r`, columns `u0 .. u0 + k`.
+    pub prefix: Vec<u32>,
+    /// Total mask pixels.
+    pub count: usize,
+}
+
+impl MaskRows {
+    /// Builds the prefix sums; `None` for an empty mask.
+    pub fn new(mask: &Mask) -> Option<Self> {
+        let (u0, v0, u1, v1) = mask.bbox()?;
+        let width = u1 - u0 + 1;
+        let height = v1 - v0 + 1;
+        let stride = width as usize + 1;
+        let mut prefix = vec![0u32; stride * height as usize];
+        let mut count = 0usize;
+        for r in 0..height {
+            let mut acc = 0u32;
+            for k in 0..width {
+                if mask.get(u0 + k, v0 + r) {
+                    acc += 1;
+                }
+                prefix[r as usize * stride + k as usize + 1] = acc;
+            }
+            count += acc as usize;
+        }
+        Some(Self {
+            u0,
+            v0,
+            width,
+            height,
+            prefix,
+            count,
+        })
+    }
+
+    /// Mask pixels in row `v`, columns `ua..=ub` (any values; clipped to the bounding box).
+    #[inline]
+    pub fn count_in_row(&self, v: i64, ua: i64, ub: i64) -> u32 {
+        let r = v - self.v0 as i64;
+        if r < 0 || r >= self.height as i64 {
+            return 0;
+        }
+        let a = (ua - self.u0 as i64).clamp(0, self.width as i64) as usize;
+        let b = (ub + 1 - self.u0 as i64).clamp(0, self.width as i64) as usize;
+        if b <= a {
+            return 0;
+        }
+        let base = r as usize * (self.width as usize + 1);
+        match (self.prefix.get(base + b), self.prefix.get(base + a)) {
+            (Some(hi), Some(lo)) => hi - lo,
+            _ => 0,
+        }
+    }
+}
+
+/// The 3D observation of one instance (camera frame, mm).
+#[derive(Debug, Clone)]
+pub struct Observation {
+    /// Back-projected points of the mask pixels with valid depth that survived outlier rejection, mm.
+    pub points_mm: Vec<Point3<f64>>,
+    /// Unit normals, one per point, oriented toward the camera (`n · p < 0`).
+    pub normals: Vec<Vector3<f64>>,
+    /// Pixel `[u, v]` of each point.
+    pub pixels: Vec<[u32; 2]>,
+    /// The caller's mask (unchanged).
+    pub mask: Mask,
+    /// Mean of the points, mm.
+    pub centroid_mm: Point3<f64>,
+    /// Indices into `points_mm` of a fixed, spatially spread subsample (≤ `max_subsample`) used for
+    /// scoring and ICP.
+    pub subsample: Vec<usize>,
+    /// Row prefix sums of `mask` (silhouette IoU in O(rows)).
+    pub mask_rows: MaskRows,
+}
+
+impl Observation {
+    /// Unit viewing direction from the camera toward the centroid.
+    pub fn view_dir(&self) -> Vector3<f64> {
+        let c = self.centroid_mm.coords;
+        let n = c.norm();
+        if n > 0.0 && n.is_finite() {
+            c / n
+        } else {
+            Vector3::z()
+        }
+    }
+}
+
+/// Checks that mask and depth agree in size and buffer length.
+pub(crate) fn check_sizes(depth: &DepthMap, mask: &Mask) -> Result<(), EstimateError> {
+    if mask.width != depth.width || mask.height != depth.height {
+        return Err(EstimateError::SizeMismatch {
+            mask_width: mask.width,
+            mask_height: mask.height,
+            depth_width: depth.width,
+            depth_height: depth.height,
+        });
+    }
+    let expected = depth.width as usize * depth.height as usize;
+    if depth.depth_mm.len() != expected {
+        return Err(EstimateError::BadBuffer {
+            what: "depth map",
+            len: depth.depth_mm.len(),
+            expected,
+        });
+    }
+    if mask.data.len() != expected {
+        return Err(EstimateError::BadBuffer {
+            what: "mask",
+            len: mask.data.len(),
+            expected,
+        });
+    }
+    Ok(())
+}
+
+/// Builds the [`Observation`] of one masked instance (see the module docs for the filters).
+///
+/// Errors: [`EstimateError::SizeMismatch`] / [`EstimateError::BadBuffer`] when mask and depth
+/// disagree, [`EstimateError::EmptyMask`], [`EstimateError::TooFewPoints`] when fewer than
+/// `cfg.min_points` usable points remain, [`EstimateError::Geom`] for invalid intrinsics.
+pub fn observe(
+    depth: &DepthMap,
+    intrinsics: &Intrinsics,
+    mask: &Mask,
+    cfg: &ObservationConfig,
+) -> Result<Observation, EstimateError> {
+    check_sizes(depth, mask)?;
+    // Re-validate: the struct fields are public, so a zero focal length can reach us.
+    Intrinsics::new(intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy)?;
+    let mask_rows = MaskRows::new(mask).ok_or(EstimateError::EmptyMask)?;
+    let needed = cfg.min_points.max(3);
+    let (u0, v0) = (mask_rows.u0, mask_rows.v0);
+    let (bw, bh) = (mask_rows.width as usize, mask_rows.height as usize);
+    let w = depth.width as usize;
+
+    // Valid in-mask depth over the bounding box (0 = unusable).
+    let mut z_box = vec![0f32; bw * bh];
+    for r in 0..bh {
+        for k in 0..bw {
+            let (u, v) = (u0 as usize + k, v0 as usize + r);
+            let i = v * w + u;
+            if mask.data.get(i).copied().unwrap_or(false) {
+                let d = depth.depth_mm.get(i).copied().unwrap_or(0.0);
+                if d.is_finite() && d > 0.0 {
+                    z_box[r * bw + k] = d;
+                }
+            }
+        }
+    }
+
+    // 1. Flying pixels: compare with the 3×3 in-mask valid median.
+    let mut keep = vec![false; bw * bh];
+    let mut nb = [0f32; 9];
+    for r in 0..bh {
+        for k in 0..bw {
+            let z = z_box[r * bw + k];
+            if z <= 0.0 {
+                continue;
+            }
+            let mut n = 0;
+            for dr in -1i64..=1 {
+                for dk in -1i64..=1 {
+                    let (rr, kk) = (r as i64 + dr, k as i64 + dk);
+                    if rr < 0 || kk < 0 || rr >= bh as i64 || kk >= bw as i64 {
+                        continue;
+                    }
+                    let zz = z_box[rr as usize * bw + kk as usize];
+                    if zz > 0.0 {
+                        nb[n] = zz;
+                        n += 1;
+                    }
+                }
+            }
+            let vals = &mut nb[..n];
+            vals.sort_unstable_by(|a, b| a.total_cmp(b));
+            let med = vals[n / 2] as f64; // n ≥ 1: the pixel itself is valid
+            let tol = cfg.flying_abs_mm.max(cfg.flying_rel * z as f64);
+            keep[r * bw + k] = (z as f64 - med).abs() <= tol;
+        }
+    }
+
+    let mut points = Vec::new();
+    let mut pixels = Vec::new();
+    for r in 0..bh {
+        for k in 0..bw {
+            if keep[r * bw + k] {
+                let (u, v) = (u0 + k as u32, v0 + r as u32);
+                let z = z_box[r * bw + k] as f64;
+                points.push(intrinsics.back_project(u as f64, v as f64, z));
+                pixels.push([u, v]);
+            }
+        }
+    }
+    if points.len() < needed {
+        return Err(EstimateError::TooFewPoints {
+            valid: points.len(),
+            needed,
+        });
+    }
+
+    // 2. Robust distance-to-centroid cut.
+    if cfg.outlier_k > 0.0 {
+        let med = Point3::new(
+            median(points.iter().map(|p| p.x).collect()),
+            median(points.iter().map(|p| p.y).collect()),
+            median(points.iter().map(|p| p.z).collect()),
+        );
+        let d: Vec<f64> = points.iter().map(|p| (p - med).norm()).collect();
+        let dm = median(d.clone());
+        let mad = median(d.iter().map(|x| (x - dm).abs()).collect());
+        let cut = dm + cfg.outlier_k * 1.4826 * mad;
+        if cut.is_finite() && mad > 0.0 {
+            let mut j = 0;
+            for i in 0..points.len() {
+                if d[i] <= cut {
+                    points[j] = points[i];
+                    pixels[j] = pixels[i];
+                    j += 1;
+                }
+            }
+            points.truncate(j);
+            pixels.truncate(j);
+            // Rebuild the keep map so normals only use surviving neighbours.
+            keep.iter_mut().for_each(|k| *k = false);
+            for px in &pixels {
+                keep[(px[1] - v0) as usize * bw + (px[0] - u0) as usize] = true;
+            }
+        }
+    }
+    if points.len() < needed {
+        return Err(EstimateError::TooFewPoints {
+            valid: points.len(),
+            needed,
+        });
+    }
+
+    // Point index per bounding-box pixel, for the normal windows.
+    let mut index = vec![u32::MAX; bw * bh];
+    for (i, px) in pixels.iter().enumerate() {
+        index[(px[1] - v0) as usize * bw + (px[0] - u0) as usize] = i as u32;
+    }
+    let rad = cfg.normal_radius_px.clamp(1, 8) as i64;
+    let mut normals = Vec::with_capacity(points.len());
+    for (i, px) in pixels.iter().enumerate() {
+        let p = points[i];
+        let (k, r) = ((px[0] - u0) as i64, (px[1] - v0) as i64);
+        let mut s = Vector3::zeros();
+        let mut ss = Matrix3::zeros();
+        let mut n = 0usize;
+        for dr in -rad..=rad {
+            let rr = r + dr;
+            if rr < 0 || rr >= bh as i64 {
+                continue;
+            }
+            for dk in -rad..=rad {
+                let kk = k + dk;
+                if kk < 0 || kk >= bw as i64 {
+                    continue;
+                }
+                let j = index[rr as usize * bw + kk as usize];
+                if j == u32::MAX {
+                    continue;
+                }
+                let q = points[j as usize] - p;
+                s += q;
+                ss += q * q.transpose();
+                n += 1;
+            }
+        }
+        let fallback = -p.coords / p.coords.norm().max(1e-12);
+        let mut nrm = if n >= 3 {
+            let mean = s / n as f64;
+            let cov = ss / n as f64 - mean * mean.transpose();
+            smallest_eigenvector(&cov).unwrap_or(fallback)
+        } else {
+            fallback
+        };
+        if nrm.dot(&p.coords) > 0.0 {
+            nrm = -nrm;
+        }
+        normals.push(nrm);
+    }
+
+    let n = points.len();
+    let centroid =
+        Point3::from(points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n as f64);
+    let m = cfg.max_subsample.max(1);
+    let subsample: Vec<usize> = if n <= m {
+        (0..n).collect()
+    } else {
+        // Pixels are in raster order, so an even stride spreads the subsample over the mask.
+        (0..m).map(|j| (j * n + n / (2 * m)) / m).collect()
+    };
+    Ok(Observation {
+        points_mm: points,
+        normals,
+        pixels,
+        mask: mask.clone(),
+        centroid_mm: centroid,
+        subsample,
+        mask_rows,
+    })
+}
+
+/// Median of a non-empty vector (upper median); 0 for an empty one.
+pub(crate) fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let k = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    *m
+}
+
+/// Eigenvalues of a symmetric 3×3 matrix, descending (closed form, Smith 1961).
+pub(crate) fn sym3_eigenvalues(a: &Matrix3<f64>) -> [f64; 3] {
+    let p1 = a[(0, 1)].powi(2) + a[(0, 2)].powi(2) + a[(1, 2)].powi(2);
+    let q = a.trace() / 3.0;
+    let p2 = (a[(0, 0)] - q).powi(2) + (a[(1, 1)] - q).powi(2) + (a[(2, 2)] - q).powi(2) + 2.0 * p1;
+    if p2 <= 1e-300 {
+        return [q, q, q];
+    }
+    let p = (p2 / 6.0).sqrt();
+    let b = (a - Matrix3::identity() * q) / p;
+    let r = (b.determinant() / 2.0).clamp(-1.0, 1.0);
+    let phi = r.acos() / 3.0;
+    let e1 = q + 2.0 * p * phi.cos();
+    let e3 = q + 2.0 * p * (phi + 2.0 * std::f64::consts::PI / 3.0).cos();
+    [e1, 3.0 * q - e1 - e3, e3]
+}
+
+/// Unit eigenvector of a symmetric 3×3 matrix for eigenvalue `lambda`; `None` when degenerate.
+pub(crate) fn sym3_eigenvector(a: &Matrix3<f64>, lambda: f64) -> Option<Vector3<f64>> {
+    let m = a - Matrix3::identity() * lambda;
+    let r0 = m.row(0).transpose();
+    let r1 = m.row(1).transpose();
+    let r2 = m.row(2).transpose();
+    let c = [r0.cross(&r1), r0.cross(&r2), r1.cross(&r2)];
+    let best = c
+        .iter()
+        .max_by(|x, y| x.norm_squared().total_cmp(&y.norm_squared()))?;
+    let n = best.norm();
+    (n > 1e-12 * (1.0 + m.norm().powi(2)) && n.is_finite()).then(|| best / n)
+}
+
+/// Eigenvector of the smallest eigenvalue (the plane normal of a point covariance).
+pub(crate) fn smallest_eigenvector(a: &Matrix3<f64>) -> Option<Vector3<f64>> {
+    let e = sym3_eigenvalues(a);
+    sym3_eigenvector(a, e[2])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn k() -> Intrinsics {
+        Intrinsics::new(600.0, 600.0, 32.0, 24.0).unwrap()
+    }
+
+    #[test]
+    fn closed_form_eigen_matches_nalgebra() {
+        let m = Matrix3::new(4.0, 1.0, 0.5, 1.0, 3.0, -0.2, 0.5, -0.2, 1.0);
+        let ours = sym3_eigenvalues(&m);
+        let mut theirs: Vec<f64> = m.symmetric_eigenvalues().iter().copied().collect();
+        theirs.sort_by(|a, b| b.total_cmp(a));
+        for i in 0..3 {
+            assert!((ours[i] - theirs[i]).abs() < 1e-9, "{ours:?} {theirs:?}");
+        }
+        let v = smallest_eigenvector(&m).unwrap();
+        assert!(((m * v) - v * ours[2]).norm() < 1e-8);
+    }
+
+    #[test]
+    fn plane_normals_face_camera_and_flying_pixels_are_dropped() {
+        // A tilted plane z = 500 + 0.5·x over a 64×48 image, one flying pixel in the middle.
+        let kk = k();
+        let mut depth = DepthMap::zeros(64, 48);
+        let mut mask = Mask::empty(64, 48);
+        for v in 4..44u32 {
+            for u in 4..60u32 {
+                // Solve z = 500 + 0.5·x with x = (u - cx) z / fx.
+                let a = (u as f64 - kk.cx) / kk.fx;
+                let z = 500.0 / (1.0 - 0.5 * a);
+                depth.depth_mm[(v * 64 + u) as usize] = z as f32;
+                mask.set(u, v, true);
+            }
+        }
+        depth.depth_mm[(20 * 64 + 30) as usize] = 700.0;
+        let obs = observe(&depth, &kk, &mask, &ObservationConfig::default()).unwrap();
+        assert_eq!(obs.points_mm.len(), 40 * 56 - 1);
+        assert!(!obs.pixels.contains(&[30, 20]));
+        let expect = Vector3::new(0.5, 0.0, -1.0).normalize();
+        for n in &obs.normals {
+            assert!(n.dot(&expect) > 0.999, "{n:?}");
+        }
+        assert!(obs.subsample.len() <= 600);
+        assert_eq!(obs.mask_rows.count, 40 * 56);
+        assert_eq!(obs.mask_rows.count_in_row(10, 0, 100), 56);
+        assert_eq!(obs.mask_rows.count_in_row(10, 10, 19), 10);
+    }
+
+    #[test]
+    fn bad_inputs_are_errors() {
+        let kk = k();
+        let depth = DepthMap::zeros(64, 48);
+        let cfg = ObservationConfig::default();
+        assert_eq!(
+            observe(&depth, &kk, &Mask::empty(64, 48), &cfg).unwrap_err(),
+            EstimateError::EmptyMask
+        );
+        assert!(matches!(
+            observe(&depth, &kk, &Mask::empty(10, 48), &cfg),
+            Err(EstimateError::SizeMismatch { .. })
+        ));
+        let mut m = Mask::empty(64, 48);
+        for u in 0..3 {
+            m.set(u, 0, true);
+        }
+        let mut d = depth.clone();
+        d.depth_mm.iter_mut().for_each(|z| *z = 800.0);
+        assert_eq!(
+            observe(&d, &kk, &m, &cfg).unwrap_err(),
+            EstimateError::TooFewPoints {
+                valid: 3,
+                needed: 30
+            }
+        );
+        let full = Mask {
+            width: 64,
+            height: 48,
+            data: vec![true; 64 * 48],
+        };
+        assert!(matches!(
+            observe(&depth, &kk, &full, &cfg),
+            Err(EstimateError::TooFewPoints { valid: 0, .. })
+        ));
+        let mut nan = d.clone();
+        nan.depth_mm.iter_mut().for_each(|z| *z = f32::NAN);
+        assert!(observe(&nan, &kk, &full, &cfg).is_err());
+        let short = Mask {
+            width: 64,
+            height: 48,
+            data: vec![true; 5],
+        };
+        assert!(matches!(
+            observe(&d, &kk, &short, &cfg),
+            Err(EstimateError::BadBuffer { .. })
+        ));
+        let bad_k = Intrinsics { fx: 0.0, ..kk };
+        assert!(observe(&d, &bad_k, &full, &cfg).is_err());
+    }
+}

@@ -1,1 +1,391 @@
-//! (stage module; being written)
+//! PoseEstimate(C(s)) of the paper (§3.2): the 6D pose of a cuboid template of a *given* size.
+//!
+//! In: an [`Observation`], the depth map and camera, the template size (mm) and optionally a prior
+//! pose (the previous estimate inside the scale-search loop). Out: a [`PoseEstimate`].
+//!
+//! Stages (SPEC §1):
+//! 1. hypotheses ([`crate::hypotheses`]): geometric frames × 6 axis assignments, placed behind the
+//!    visible faces; with a prior, the prior and its axis assignments too;
+//! 2. cheap coarse score: mean truncated distance of ~200 observed points to the hypothesis'
+//!    camera-facing surface, divided by the truncation (so in [0, 1], lower is better);
+//! 3. depth-consistency penalty ([`crate::depth_filter`], the paper's filter) added to the coarse
+//!    score to re-rank (`key = coarse + rank_weight · penalty`; switched off by
+//!    `depth_filter.enabled = false`, the paper's ablation);
+//! 4. the `top_k` best keys are refined by robust ICP ([`crate::refine`]);
+//! 5. ranking by confidence `score = inlier_fraction · silhouette_iou · (1 − depth_penalty)` (the
+//!    last factor only when the filter is enabled), all three in [0, 1]. The silhouette is the
+//!    convex hull of the projected corners, compared with the observed mask by IoU.
+//!
+//! Deterministic: every random choice uses fixed seeds from the config.
+
+use anybox_geom::{Intrinsics, OrientedBox};
+use anybox_io::image::DepthMap;
+use nalgebra::{Matrix3, Point3, Rotation3, Vector2, Vector3};
+
+use crate::depth_filter::{depth_penalty, CellMinDepth, DepthFilterConfig, SurfaceSamples};
+use crate::error::EstimateError;
+use crate::hypotheses::{candidate_frames, convex_hull_2d, generate, HypothesisConfig};
+use crate::observation::Observation;
+use crate::refine::{closest_on_faces, refine_pose, visible_faces, RefineConfig};
+
+/// How the cheap pre-refinement score measures point-to-template distance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CoarseScore {
+    /// Distance to the camera-facing faces only (default; visibility-aware).
+    VisibleSurface,
+    /// Distance to the whole surface, like symmetric point-cloud matching without visibility
+    /// reasoning (what a learned matcher sees; lets "hovering" poses score well, which is what
+    /// the depth filter is for).
+    AllFaces,
+}
+
+/// Parameters of [`estimate_pose`].
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct PoseConfig {
+    /// Hypothesis generation.
+    pub hypotheses: HypothesisConfig,
+    /// The depth-consistency filter (paper defaults: 5 px cells, 1000 samples, threshold 0).
+    pub depth_filter: DepthFilterConfig,
+    /// ICP refinement.
+    pub refine: RefineConfig,
+    /// Coarse-score flavour. Default [`CoarseScore::VisibleSurface`].
+    pub coarse: CoarseScore,
+    /// Observed points used for the coarse score. Default 200.
+    pub coarse_points: usize,
+    /// Truncation of the coarse point distance, mm. Default 20 mm.
+    pub coarse_trunc_mm: f64,
+    /// Hypotheses refined by ICP. Default 4.
+    pub top_k: usize,
+    /// The depth-cell region is the mask's bounding box grown by this fraction of its larger
+    /// side on every side. Default 1.0.
+    pub region_margin: f64,
+}
+
+impl Default for PoseConfig {
+    fn default() -> Self {
+        Self {
+            hypotheses: HypothesisConfig::default(),
+            depth_filter: DepthFilterConfig::default(),
+            refine: RefineConfig::default(),
+            coarse: CoarseScore::VisibleSurface,
+            coarse_points: 200,
+            coarse_trunc_mm: 20.0,
+            top_k: 4,
+            region_margin: 1.0,
+        }
+    }
+}
+
+/// The result of [`estimate_pose`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseEstimate {
+    /// The best pose, with `size_mm` equal to the requested template size.
+    pub pose: OrientedBox,
+    /// Confidence in [0, 1] (module docs).
+    pub score: f64,
+    /// Fraction of (subsampled) observed points on the visible surface, [0, 1].
+    pub inlier_fraction: f64,
+    /// IoU of the cuboid silhouette with the observed mask, [0, 1].
+    pub silhouette_iou: f64,
+    /// Depth-consistency penalty of the returned pose, [0, 1].
+    pub depth_penalty: f64,
+    /// Hypotheses generated (after de-duplication of frames).
+    pub n_hypotheses: usize,
+}
+
+/// A scored hypothesis before refinement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RankedHypothesis {
+    /// The hypothesis.
+    pub pose: OrientedBox,
+    /// Coarse score in [0, 1], lower is better.
+    pub coarse: f64,
+    /// Depth-consistency penalty in [0, 1].
+    pub penalty: f64,
+    /// Ranking key (`coarse + rank_weight · penalty` when the filter is enabled, else `coarse`).
+    pub key: f64,
+}
+
+/// Per-call context shared by every hypothesis (built once in [`estimate_pose`]).
+pub struct ScoringContext<'a> {
+    obs: &'a Observation,
+    intrinsics: &'a Intrinsics,
+    cells: CellMinDepth,
+    samples: SurfaceSamples,
+    coarse_idx: Vec<usize>,
+}
+
+impl<'a> ScoringContext<'a> {
+    /// Builds the depth cells over the mask's neighbourhood and the surface samples for `size_mm`.
+    pub fn new(
+        obs: &'a Observation,
+        depth: &DepthMap,
+        intrinsics: &'a Intrinsics,
+        size_mm: &Vector3<f64>,
+        cfg: &PoseConfig,
+    ) -> Self {
+        let mr = &obs.mask_rows;
+        let grow = (mr.width.max(mr.height) as f64 * cfg.region_margin.max(0.0)).ceil() as u32;
+        let cells = CellMinDepth::new(
+            depth,
+            cfg.depth_filter.cell_px,
+            mr.u0.saturating_sub(grow),
+            mr.v0.saturating_sub(grow),
+            mr.u0.saturating_add(mr.width).saturating_add(grow),
+            mr.v0.saturating_add(mr.height).saturating_add(grow),
+        );
+        let samples =
+            SurfaceSamples::new(size_mm, cfg.depth_filter.n_samples, cfg.depth_filter.seed);
+        let sub = &obs.subsample;
+        let m = cfg.coarse_points.max(1);
+        let coarse_idx = if sub.len() <= m {
+            sub.clone()
+        } else {
+            (0..m).map(|j| sub[j * sub.len() / m]).collect()
+        };
+        Self {
+            obs,
+            intrinsics,
+            cells,
+            samples,
+            coarse_idx,
+        }
+    }
+
+    /// Coarse score of one hypothesis, [0, 1], lower is better.
+    pub fn coarse(&self, pose: &OrientedBox, cfg: &PoseConfig) -> f64 {
+        const ALL: [(usize, f64); 6] = [
+            (0, 1.0),
+            (0, -1.0),
+            (1, 1.0),
+            (1, -1.0),
+            (2, 1.0),
+            (2, -1.0),
+        ];
+        let (vis, nv) = visible_faces(pose);
+        let faces: &[(usize, f64)] = match cfg.coarse {
+            CoarseScore::VisibleSurface => &vis[..nv],
+            CoarseScore::AllFaces => &ALL,
+        };
+        let trunc = cfg.coarse_trunc_mm.max(1e-6);
+        let rt = pose.rotation.matrix().transpose();
+        let h = pose.half_size_mm();
+        let mut s = 0.0;
+        for &i in &self.coarse_idx {
+            let l = rt * (self.obs.points_mm[i].coords - pose.center_mm);
+            let d = match closest_on_faces(&l, &h, faces) {
+                Some((q, _, _)) => (l - q).norm(),
+                None => trunc,
+            };
+            s += d.min(trunc);
+        }
+        if self.coarse_idx.is_empty() {
+            1.0
+        } else {
+            s / (trunc * self.coarse_idx.len() as f64)
+        }
+    }
+
+    /// Depth-consistency penalty of one hypothesis (its size must be the context's size).
+    pub fn penalty(&self, pose: &OrientedBox, cfg: &PoseConfig) -> f64 {
+        depth_penalty(
+            pose,
+            &self.samples,
+            &self.cells,
+            self.intrinsics,
+            cfg.depth_filter.threshold_mm,
+        )
+    }
+
+    /// Scores and sorts hypotheses by key, best first (stable: ties keep the input order).
+    pub fn rank(&self, hyps: &[OrientedBox], cfg: &PoseConfig) -> Vec<RankedHypothesis> {
+        let mut out: Vec<RankedHypothesis> = hyps
+            .iter()
+            .map(|h| {
+                let coarse = self.coarse(h, cfg);
+                let penalty = self.penalty(h, cfg);
+                let key = if cfg.depth_filter.enabled {
+                    coarse + cfg.depth_filter.rank_weight * penalty
+                } else {
+                    coarse
+                };
+                RankedHypothesis {
+                    pose: *h,
+                    coarse,
+                    penalty,
+                    key,
+                }
+            })
+            .filter(|r| r.key.is_finite())
+            .collect();
+        out.sort_by(|a, b| a.key.total_cmp(&b.key));
+        out
+    }
+
+    /// IoU of the pose's silhouette (convex hull of the projected corners) with the observed mask.
+    pub fn silhouette_iou(&self, pose: &OrientedBox) -> f64 {
+        silhouette_iou(pose, self.obs, self.intrinsics)
+    }
+}
+
+/// IoU between the convex hull of `pose`'s projected corners and `obs.mask` (0 when a corner is
+/// behind the camera). Scanline over the hull rows, mask counts from the row prefix sums.
+pub fn silhouette_iou(pose: &OrientedBox, obs: &Observation, k: &Intrinsics) -> f64 {
+    let mut pts = Vec::with_capacity(8);
+    for c in pose.corners_mm() {
+        match k.project(&c) {
+            Some(p) if c.z > 1e-3 => pts.push(Vector2::new(p.x, p.y)),
+            _ => return 0.0,
+        }
+    }
+    let hull = convex_hull_2d(&pts);
+    if hull.len() < 3 {
+        return 0.0;
+    }
+    let (w, h) = (obs.mask.width as i64, obs.mask.height as i64);
+    let ymin = hull.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
+    let ymax = hull.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max);
+    let v0 = (ymin.ceil().max(0.0) as i64).min(h);
+    let v1 = (ymax.floor().min((h - 1) as f64) as i64).max(-1);
+    let mut hull_n: u64 = 0;
+    let mut inter: u64 = 0;
+    for v in v0..=v1 {
+        let y = v as f64;
+        let (mut xa, mut xb) = (f64::INFINITY, f64::NEG_INFINITY);
+        for i in 0..hull.len() {
+            let a = hull[i];
+            let b = hull[(i + 1) % hull.len()];
+            if (a.y - y) * (b.y - y) <= 0.0 {
+                if (b.y - a.y).abs() < 1e-12 {
+                    xa = xa.min(a.x.min(b.x));
+                    xb = xb.max(a.x.max(b.x));
+                } else {
+                    let x = a.x + (y - a.y) * (b.x - a.x) / (b.y - a.y);
+                    xa = xa.min(x);
+                    xb = xb.max(x);
+                }
+            }
+        }
+        if !(xa.is_finite() && xb.is_finite()) {
+            continue;
+        }
+        let ua = (xa.ceil().max(0.0) as i64).min(w);
+        let ub = (xb.floor().min((w - 1) as f64) as i64).max(-1);
+        if ub < ua {
+            continue;
+        }
+        hull_n += (ub - ua + 1) as u64;
+        inter += obs.mask_rows.count_in_row(v, ua, ub) as u64;
+    }
+    let union = obs.mask_rows.count as u64 + hull_n - inter;
+    if union == 0 {
+        0.0
+    } else {
+        inter as f64 / union as f64
+    }
+}
+
+/// The 4 rotations of a box that keep every box with distinct sides onto itself.
+fn box_symmetries() -> [Matrix3<f64>; 4] {
+    [
+        Matrix3::identity(),
+        Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, -1.0)),
+        Matrix3::from_diagonal(&Vector3::new(-1.0, 1.0, -1.0)),
+        Matrix3::from_diagonal(&Vector3::new(-1.0, -1.0, 1.0)),
+    ]
+}
+
+/// The symmetric variant of `pose` (same physical box) whose rotation is closest to `reference`.
+pub fn closest_variant(pose: &OrientedBox, reference: &Rotation3<f64>) -> OrientedBox {
+    let mut best = *pose;
+    let mut best_tr = f64::NEG_INFINITY;
+    for s in box_symmetries() {
+        let r = pose.rotation.matrix() * s;
+        let tr = (reference.matrix().transpose() * r).trace();
+        if tr > best_tr {
+            best_tr = tr;
+            best.rotation = Rotation3::from_matrix_unchecked(r);
+        }
+    }
+    best
+}
+
+/// The paper's PoseEstimate(C(s)) for a cuboid template of size `size_mm` (module docs).
+///
+/// Errors: [`EstimateError::BadTemplateSize`] for a non-finite or non-positive size,
+/// [`EstimateError::SizeMismatch`] when the depth map and the observation's mask differ in size,
+/// [`EstimateError::TooFewPoints`] for an observation with < 3 points,
+/// [`EstimateError::NoHypothesis`] if nothing could be scored.
+pub fn estimate_pose(
+    obs: &Observation,
+    depth: &DepthMap,
+    intrinsics: &Intrinsics,
+    size_mm: &Vector3<f64>,
+    prior: Option<&OrientedBox>,
+    cfg: &PoseConfig,
+) -> Result<PoseEstimate, EstimateError> {
+    if size_mm.iter().any(|s| !s.is_finite() || *s <= 0.0) {
+        return Err(EstimateError::BadTemplateSize([
+            size_mm.x, size_mm.y, size_mm.z,
+        ]));
+    }
+    crate::observation::check_sizes(depth, &obs.mask)?;
+    if obs.subsample.len() < 3
+        || obs.points_mm.len() != obs.normals.len()
+        || obs.subsample.iter().any(|&i| i >= obs.points_mm.len())
+    {
+        return Err(EstimateError::TooFewPoints {
+            valid: obs.subsample.len().min(obs.points_mm.len()),
+            needed: 3,
+        });
+    }
+    let prior = prior.filter(|p| {
+        p.center_mm.iter().all(|v| v.is_finite())
+            && p.rotation.matrix().iter().all(|v| v.is_finite())
+    });
+    let frames = candidate_frames(obs, &cfg.hypotheses);
+    let hyps = generate(obs, &frames, size_mm, prior, &cfg.hypotheses);
+    let n_hypotheses = hyps.len();
+    let ctx = ScoringContext::new(obs, depth, intrinsics, size_mm, cfg);
+    let ranked = ctx.rank(&hyps, cfg);
+    if ranked.is_empty() {
+        return Err(EstimateError::NoHypothesis("no hypothesis could be scored"));
+    }
+    let pts: Vec<Point3<f64>> = obs.subsample.iter().map(|&i| obs.points_mm[i]).collect();
+    let mut best: Option<PoseEstimate> = None;
+    for r in ranked.iter().take(cfg.top_k.max(1)) {
+        let refined = refine_pose(&r.pose, &pts, &cfg.refine);
+        let pose = refined.pose;
+        let iou = ctx.silhouette_iou(&pose);
+        let pen = ctx.penalty(&pose, cfg);
+        let mut score = refined.inlier_fraction * iou;
+        if cfg.depth_filter.enabled {
+            score *= 1.0 - pen;
+        }
+        if !score.is_finite() {
+            continue;
+        }
+        if best.as_ref().is_none_or(|b| score > b.score) {
+            best = Some(PoseEstimate {
+                pose,
+                score,
+                inlier_fraction: refined.inlier_fraction,
+                silhouette_iou: iou,
+                depth_penalty: pen,
+                n_hypotheses,
+            });
+        }
+    }
+    let mut best = best.ok_or(EstimateError::NoHypothesis(
+        "every refined hypothesis failed",
+    ))?;
+    if let Some(p) = prior {
+        best.pose = closest_variant(&best.pose, &p.rotation);
+    }
+    Ok(best)
+}
+
+#[cfg(test)]
+mod tests;
