@@ -1,1 +1,437 @@
-//! (stage module; being written)
+//! Hidden dimensions from scene context (issue #3 "Hidden dimensions"; not in the paper).
+//!
+//! In: a posed box estimate, its observed 3D points (and normals), the depth map, intrinsics and
+//! instance mask; for the cross-instance pass, all estimates of a frame.
+//! Out: which box axes were observed, and a best guess for the extent along each unobserved axis.
+//!
+//! Rules (in order):
+//! 1. **Observed axes.** Each point is assigned to the box face whose normal axis is closest to
+//!    its surface normal (within [`ContextConfig::normal_max_angle_deg`]; by nearest face when no
+//!    normals are given). A face is *observed* when it holds at least
+//!    [`ContextConfig::min_face_fraction`] of the points and at least
+//!    [`ContextConfig::min_face_points`] points (the evaluator's definition). An axis is observed
+//!    when an observed face spans it, i.e. an observed face with a different normal axis exists. A
+//!    single visible face leaves its normal axis (the one along the viewing direction) unobserved.
+//! 2. **Support plane.** For an unobserved axis `a` (unit `u` pointing away from the camera), the
+//!    visible face sits at `f = median(p · u)` over the points. Valid depth pixels in a ring around
+//!    the mask (outside it, within [`ContextConfig::ring_px`] of the mask's bounding box) are back
+//!    projected, and their offset `t = p · u − f` behind the visible face is histogrammed in
+//!    [`ContextConfig::bin_mm`] bins over `[min_hidden_mm, max_hidden_mm]`. The nearest bin holding
+//!    at least [`ContextConfig::min_support_points`] points whose points also form a plane with a
+//!    normal within [`ContextConfig::plane_max_tilt_deg`] of `u` is the support (floor, pallet top,
+//!    table, shelf board, back wall, or the top of the box below). The hidden extent is the median
+//!    `t` of those points.
+//! 3. **Neighbours** ([`share_layer_heights`]): boxes whose visible faces are coplanar (same
+//!    normal direction, offsets within [`ContextConfig::layer_tol_mm`]) form a layer; a box whose
+//!    hidden extent had no support takes the median extent along that normal of the layer's boxes
+//!    that observed it (or found support).
+//! 4. **Fallback**: the smaller of the two observed extents (cartons are rarely deeper than both
+//!    their visible sides).
+//!
+//! All extents are clamped to `[min_hidden_mm, max_hidden_mm]`. Deterministic: no randomness.
+
+use anybox_geom::{Intrinsics, OrientedBox};
+use anybox_io::{DepthMap, Mask};
+use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the hidden-dimension inference.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ContextConfig {
+    /// Infer hidden dimensions from context at all (off = keep whatever the scale search gave,
+    /// as the paper does).
+    pub enabled: bool,
+    /// A face must hold at least this many points to count as observed (evaluator: 30).
+    pub min_face_points: usize,
+    /// … and at least this fraction of the instance's points (evaluator: 5 %).
+    pub min_face_fraction: f64,
+    /// Largest angle between a point's normal and a face normal to assign it to that face, deg.
+    pub normal_max_angle_deg: f64,
+    /// Width of the ring around the mask's bounding box searched for the support, px.
+    pub ring_px: u32,
+    /// Sampling stride inside the ring, px.
+    pub ring_stride_px: u32,
+    /// Smallest plausible hidden extent, mm (also excludes neighbours in the same layer).
+    pub min_hidden_mm: f64,
+    /// Largest plausible hidden extent, mm.
+    pub max_hidden_mm: f64,
+    /// Histogram bin width for the support offset, mm.
+    pub bin_mm: f64,
+    /// Points a support bin needs (counting both neighbouring bins).
+    pub min_support_points: usize,
+    /// Largest angle between the support plane's normal and the hidden axis, deg.
+    pub plane_max_tilt_deg: f64,
+    /// Visible faces within this distance along their common normal form one layer, mm.
+    pub layer_tol_mm: f64,
+}
+
+impl Default for ContextConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            min_face_points: 30,
+            min_face_fraction: 0.05,
+            normal_max_angle_deg: 30.0,
+            ring_px: 40,
+            ring_stride_px: 2,
+            min_hidden_mm: 15.0,
+            max_hidden_mm: 1200.0,
+            bin_mm: 8.0,
+            min_support_points: 25,
+            plane_max_tilt_deg: 15.0,
+            layer_tol_mm: 20.0,
+        }
+    }
+}
+
+/// Where a hidden extent came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum HiddenSource {
+    /// Seen by the points.
+    Observed,
+    /// A support plane behind the visible face.
+    Support,
+    /// A neighbour in the same layer.
+    Neighbour,
+    /// The fallback rule.
+    Fallback,
+}
+
+/// Points per face normal axis, and each point's face axis (`None` = unassigned).
+pub fn face_point_counts(
+    pose: &OrientedBox,
+    points: &[Point3<f64>],
+    normals: &[Vector3<f64>],
+    cfg: &ContextConfig,
+) -> ([usize; 3], Vec<Option<usize>>) {
+    let mut counts = [0usize; 3];
+    let mut face = Vec::with_capacity(points.len());
+    let cos_max = cfg.normal_max_angle_deg.to_radians().cos();
+    let axes = [pose.axis(0), pose.axis(1), pose.axis(2)];
+    let use_normals = normals.len() == points.len();
+    let h = pose.half_size_mm();
+    let rt = pose.rotation.inverse();
+    for (i, p) in points.iter().enumerate() {
+        let f = if use_normals {
+            let n = normals[i];
+            let (mut best, mut bc) = (0usize, -1.0f64);
+            for (a, ax) in axes.iter().enumerate() {
+                let c = n.dot(ax).abs();
+                if c > bc {
+                    bc = c;
+                    best = a;
+                }
+            }
+            (bc >= cos_max).then_some(best)
+        } else {
+            let l = rt * (p.coords - pose.center_mm);
+            let gaps = [h.x - l.x.abs(), h.y - l.y.abs(), h.z - l.z.abs()];
+            let mut k = 0;
+            for a in 1..3 {
+                if gaps[a].abs() < gaps[k].abs() {
+                    k = a;
+                }
+            }
+            Some(k)
+        };
+        if let Some(a) = f {
+            counts[a] += 1;
+        }
+        face.push(f);
+    }
+    (counts, face)
+}
+
+/// From face counts: `(observed axes, observed faces by normal axis)` (rule 1).
+pub fn observed_axes_from_counts(
+    counts: &[usize; 3],
+    cfg: &ContextConfig,
+) -> ([bool; 3], [bool; 3]) {
+    let total: usize = counts.iter().sum();
+    let need = (cfg.min_face_fraction * total as f64)
+        .ceil()
+        .max(cfg.min_face_points as f64);
+    let faces = counts.map(|c| c as f64 >= need && c > 0);
+    let mut axes = [false; 3];
+    for a in 0..3 {
+        axes[a] = (0..3).any(|f| f != a && faces[f]);
+    }
+    // Nothing passes (tiny instance): trust everything rather than invent sizes.
+    if !faces.iter().any(|f| *f) {
+        return ([true; 3], [true; 3]);
+    }
+    (axes, faces)
+}
+
+/// Observed axes of a posed box given its points (rule 1).
+pub fn observed_axes(
+    pose: &OrientedBox,
+    points: &[Point3<f64>],
+    normals: &[Vector3<f64>],
+    cfg: &ContextConfig,
+) -> [bool; 3] {
+    let (counts, _) = face_point_counts(pose, points, normals, cfg);
+    observed_axes_from_counts(&counts, cfg).0
+}
+
+/// Unit vector along box axis `a`, pointing away from the camera at the box.
+fn away_axis(pose: &OrientedBox, a: usize) -> Vector3<f64> {
+    let n = pose.axis(a);
+    if n.dot(&pose.center_mm) >= 0.0 {
+        n
+    } else {
+        -n
+    }
+}
+
+fn median(v: &mut [f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    let m = v.len() / 2;
+    Some(*v.select_nth_unstable_by(m, f64::total_cmp).1)
+}
+
+/// A support plane found behind a visible face.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Support {
+    /// Distance from the visible face to the support along the hidden axis, mm.
+    pub offset_mm: f64,
+    /// Points that support it.
+    pub n_points: usize,
+    /// Angle between the plane normal and the hidden axis, deg.
+    pub tilt_deg: f64,
+}
+
+/// Searches the support plane behind the visible face for hidden axis `a` (rule 2).
+pub fn find_support(
+    pose: &OrientedBox,
+    a: usize,
+    points: &[Point3<f64>],
+    depth: &DepthMap,
+    k: &Intrinsics,
+    mask: &Mask,
+    cfg: &ContextConfig,
+) -> Option<Support> {
+    let u = away_axis(pose, a);
+    let mut offs: Vec<f64> = points.iter().map(|p| p.coords.dot(&u)).collect();
+    let face = median(&mut offs)?;
+    let (u0, v0, u1, v1) = mask.bbox()?;
+    if depth.width != mask.width || depth.height != mask.height {
+        return None;
+    }
+    let r = i64::from(cfg.ring_px);
+    let stride = cfg.ring_stride_px.max(1) as usize;
+    let ua = (i64::from(u0) - r).max(0);
+    let ub = (i64::from(u1) + r).min(i64::from(mask.width) - 1);
+    let va = (i64::from(v0) - r).max(0);
+    let vb = (i64::from(v1) + r).min(i64::from(mask.height) - 1);
+    let nbins = ((cfg.max_hidden_mm - cfg.min_hidden_mm) / cfg.bin_mm)
+        .ceil()
+        .max(1.0) as usize;
+    let mut hist = vec![0usize; nbins];
+    let mut ring: Vec<(f64, Point3<f64>)> = Vec::new();
+    for v in (va..=vb).step_by(stride) {
+        for uu in (ua..=ub).step_by(stride) {
+            let (pu, pv) = (uu as u32, v as u32);
+            if mask.get(pu, pv) {
+                continue;
+            }
+            let Some(z) = depth.get(pu, pv) else { continue };
+            let p = k.back_project(f64::from(pu), f64::from(pv), f64::from(z));
+            let t = p.coords.dot(&u) - face;
+            if t < cfg.min_hidden_mm || t >= cfg.max_hidden_mm {
+                continue;
+            }
+            let b = ((t - cfg.min_hidden_mm) / cfg.bin_mm) as usize;
+            if b < nbins {
+                hist[b] += 1;
+                ring.push((t, p));
+            }
+        }
+    }
+    // Nearest bin (with both neighbours) holding enough points and forming a plane facing `u`.
+    let cos_tilt = cfg.plane_max_tilt_deg.to_radians().cos();
+    let mut b = 0;
+    while b < nbins {
+        let c =
+            hist[b] + if b > 0 { hist[b - 1] } else { 0 } + hist.get(b + 1).copied().unwrap_or(0);
+        if c < cfg.min_support_points || hist[b] == 0 {
+            b += 1;
+            continue;
+        }
+        // Peak of this cluster: walk to the local maximum so the offset is centred on the plane.
+        let mut pk = b;
+        while pk + 1 < nbins && hist[pk + 1] > hist[pk] {
+            pk += 1;
+        }
+        let lo = cfg.min_hidden_mm + (pk as f64 - 1.0) * cfg.bin_mm;
+        let hi = cfg.min_hidden_mm + (pk as f64 + 2.0) * cfg.bin_mm;
+        let sel: Vec<&(f64, Point3<f64>)> =
+            ring.iter().filter(|(t, _)| *t >= lo && *t < hi).collect();
+        if let Some((normal, _)) = plane_normal(sel.iter().map(|(_, p)| p)) {
+            let c = normal.dot(&u).abs();
+            if c >= cos_tilt {
+                let mut ts: Vec<f64> = sel.iter().map(|(t, _)| *t).collect();
+                let off = median(&mut ts)?;
+                return Some(Support {
+                    offset_mm: off,
+                    n_points: sel.len(),
+                    tilt_deg: c.clamp(-1.0, 1.0).acos().to_degrees(),
+                });
+            }
+        }
+        // Not a plane facing the axis (e.g. a wall crossing the slab): continue beyond the cluster.
+        b = pk + 2;
+    }
+    None
+}
+
+/// Least-squares plane normal of a point set (smallest principal axis); `None` below 3 points.
+fn plane_normal<'p>(
+    pts: impl Iterator<Item = &'p Point3<f64>> + Clone,
+) -> Option<(Vector3<f64>, f64)> {
+    let mut n = 0usize;
+    let mut c = Vector3::zeros();
+    for p in pts.clone() {
+        c += p.coords;
+        n += 1;
+    }
+    if n < 3 {
+        return None;
+    }
+    c /= n as f64;
+    let mut cov = Matrix3::zeros();
+    for p in pts {
+        let d = p.coords - c;
+        cov += d * d.transpose();
+    }
+    let eig = SymmetricEigen::new(cov / n as f64);
+    let mut k = 0;
+    for i in 1..3 {
+        if eig.eigenvalues[i] < eig.eigenvalues[k] {
+            k = i;
+        }
+    }
+    let normal = eig.eigenvectors.column(k).into_owned();
+    let nn = normal.norm();
+    (nn > 0.0).then(|| (normal / nn, eig.eigenvalues[k].max(0.0).sqrt()))
+}
+
+/// Inputs of the hidden-dimension inference for one instance.
+#[derive(Debug, Clone, Copy)]
+pub struct ContextInputs<'a> {
+    /// Depth map, mm.
+    pub depth: &'a DepthMap,
+    /// Camera intrinsics.
+    pub intrinsics: &'a Intrinsics,
+    /// The instance mask.
+    pub mask: &'a Mask,
+    /// Observed points of the instance, camera frame, mm.
+    pub points_mm: &'a [Point3<f64>],
+}
+
+/// Fills the unobserved axes of `pose.size_mm` (rules 2 and 4); returns the size and the source
+/// of each axis.
+pub fn infer_hidden(
+    pose: &OrientedBox,
+    observed: [bool; 3],
+    inputs: &ContextInputs<'_>,
+    cfg: &ContextConfig,
+) -> (Vector3<f64>, [HiddenSource; 3]) {
+    let mut size = pose.size_mm;
+    let mut src = [HiddenSource::Observed; 3];
+    for a in 0..3 {
+        if observed[a] {
+            continue;
+        }
+        let found = find_support(
+            pose,
+            a,
+            inputs.points_mm,
+            inputs.depth,
+            inputs.intrinsics,
+            inputs.mask,
+            cfg,
+        );
+        match found {
+            Some(s) => {
+                size[a] = s.offset_mm;
+                src[a] = HiddenSource::Support;
+            }
+            None => {
+                let others: Vec<f64> = (0..3)
+                    .filter(|&b| b != a && observed[b])
+                    .map(|b| pose.size_mm[b])
+                    .collect();
+                if let Some(m) = others.iter().copied().reduce(f64::min) {
+                    size[a] = m;
+                }
+                src[a] = HiddenSource::Fallback;
+            }
+        }
+        size[a] = size[a].clamp(cfg.min_hidden_mm, cfg.max_hidden_mm);
+    }
+    (size, src)
+}
+
+/// One instance's state for the cross-instance pass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LayerMember {
+    /// The current estimate.
+    pub pose: OrientedBox,
+    /// Source of each axis' extent.
+    pub sources: [HiddenSource; 3],
+}
+
+/// Rule 3: boxes with coplanar visible faces share the extent along that face's normal.
+///
+/// Returns, per member, a new size where a fallback extent was replaced by a neighbour's
+/// (`None` = unchanged).
+pub fn share_layer_heights(
+    members: &[LayerMember],
+    cfg: &ContextConfig,
+) -> Vec<Option<Vector3<f64>>> {
+    let mut out = vec![None; members.len()];
+    for (i, m) in members.iter().enumerate() {
+        for a in 0..3 {
+            if m.sources[a] != HiddenSource::Fallback {
+                continue;
+            }
+            let u = away_axis(&m.pose, a);
+            // The visible face of the hidden axis: centre minus half the extent towards the camera.
+            let face = m.pose.center_mm.dot(&u) - 0.5 * m.pose.size_mm[a];
+            let mut vals = Vec::new();
+            for (j, o) in members.iter().enumerate() {
+                if i == j {
+                    continue;
+                }
+                // The axis of the neighbour most parallel to u.
+                let (mut b, mut bc) = (0usize, -1.0f64);
+                for ax in 0..3 {
+                    let c = o.pose.axis(ax).dot(&u).abs();
+                    if c > bc {
+                        bc = c;
+                        b = ax;
+                    }
+                }
+                if bc < 0.97 || o.sources[b] == HiddenSource::Fallback {
+                    continue;
+                }
+                // Its face towards the camera along u.
+                let of = o.pose.center_mm.dot(&u) - 0.5 * o.pose.size_mm[b];
+                if (of - face).abs() <= cfg.layer_tol_mm {
+                    vals.push(o.pose.size_mm[b]);
+                }
+            }
+            if let Some(h) = median(&mut vals) {
+                let mut s = out[i].unwrap_or(m.pose.size_mm);
+                s[a] = h.clamp(cfg.min_hidden_mm, cfg.max_hidden_mm);
+                out[i] = Some(s);
+            }
+        }
+    }
+    out
+}

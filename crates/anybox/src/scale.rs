@@ -1,1 +1,696 @@
-//! (stage module; being written)
+//! Scale search: the paper's Algorithm 1 (binary search over box dimensions) and Algorithm 2
+//! (early stopping by one proportional update), the canonical-template and oracle baselines, and
+//! anybox's own point-fit mode (paper §3 "Scale Estimation" / "Early Stopping", SPEC §1).
+//!
+//! In: a pose estimator for a cuboid template of a given size (the paper's PoseEstimate(C(s)),
+//! abstracted by [`PoseEstimator`] so the loop can be tested in isolation), the observed mask
+//! pixels, depth map and 3D points, and a [`ScaleConfig`].
+//! Out: [`ScaleOutcome`] — final pose with size, and what the loop did (iterations, pose calls,
+//! whether early stopping fired).
+//!
+//! Sizes are absolute millimetres: the template `s₀` is [`ScaleConfig::template_mm`] and the
+//! binary-search bounds `ℓ`, `u` are [`ScaleConfig::lower_mm`] / [`ScaleConfig::upper_mm`] per
+//! axis (the paper writes them as scale factors of the template; absolute bounds are the same
+//! thing with the template folded in).
+//!
+//! Extents are compared only where meaningful: an axis nearly along the viewing ray has no
+//! silhouette extent ([`crate::silhouette::MIN_FORESHORTENING`]), and where the observed mask ends
+//! at an occluder (something clearly closer to the camera just outside the mask) or at the image
+//! border, the observed extent is only a lower bound, so it may grow the box but never shrink it.
+
+use anybox_geom::{Intrinsics, OrientedBox};
+use anybox_io::DepthMap;
+use nalgebra::{Matrix3, Point3, Rotation3, Vector2, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::context::{face_point_counts, observed_axes_from_counts, ContextConfig};
+use crate::silhouette::{
+    axis_directions, extents_of_local_points, mask_span, rendered_extents, trim_count,
+    AxisDirections, Extents,
+};
+
+/// How the box size is found.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ScaleMode {
+    /// Algorithm 1 only: per-axis binary search on silhouette extents until the largest extent
+    /// error is ≤ τ_px or T_max iterations.
+    BinarySearch,
+    /// Algorithm 1 + Algorithm 2 (the paper's default): once the rotation is stable, one
+    /// proportional update `s ← s ⊙ (e_obs ⊘ e_cad)`, one last pose estimate, stop.
+    EarlyStopping,
+    /// No scale estimation: the fixed template [`ScaleConfig::template_mm`] (the paper's
+    /// "SAM6D + canonical CAD" baseline).
+    Canonical,
+    /// The true size is given and only the pose is estimated (the paper's "GT CAD" oracle), mm.
+    Oracle([f64; 3]),
+    /// anybox's own mode (not in the paper): each observed dimension is the robust extent of the
+    /// 3D points on the faces spanning it, hidden dimensions come from scene context, pose and
+    /// size are alternated a few times, then a short silhouette-extent polish on the observed
+    /// faces only.
+    PointFit,
+}
+
+/// Parameters of the scale search.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ScaleConfig {
+    /// Which algorithm; default [`ScaleMode::EarlyStopping`] (paper §3, Algorithm 2).
+    pub mode: ScaleMode,
+    /// Canonical template `s₀`, mm (x, y, z): 300 × 200 × 150 mm, a mid-size shipping carton
+    /// (the paper starts from "a canonical category template" without giving its size).
+    pub template_mm: [f64; 3],
+    /// Binary-search lower bound ℓ per axis, mm (Algorithm 1). 20 mm: thinner boxes are rare.
+    pub lower_mm: f64,
+    /// Binary-search upper bound u per axis, mm (Algorithm 1). 1200 mm: a pallet-sized carton.
+    pub upper_mm: f64,
+    /// τ_px: stop when the largest per-axis extent error is ≤ this, px (paper: 10 px).
+    pub tau_px: f64,
+    /// T_max: the most binary-search iterations (pose estimates), paper leaves it open; 12
+    /// halvings shrink the 1180 mm interval below 0.3 mm.
+    pub max_iters: u32,
+    /// τ_rot: the rotation change that counts as stable for early stopping, degrees (paper: "a
+    /// small threshold"; 2°).
+    pub tau_rot_deg: f64,
+    /// k: consecutive stable steps before early stopping fires (paper: "consecutive steps"; 2).
+    pub stable_steps: u32,
+    /// Fraction of mask pixels trimmed at each end when measuring observed extents, against
+    /// ragged mask edges (0.05 %; 0 for perfect masks).
+    pub extent_trim_fraction: f64,
+    /// Just outside the mask, depth this much closer than the box edge marks an occluder, mm.
+    pub occluder_margin_mm: f64,
+    /// PointFit: alternations of point-extent size fit and pose estimate.
+    pub pointfit_iters: u32,
+    /// PointFit: percentile (each end, %) of point coordinates taken as the face edges.
+    pub pointfit_percentile: f64,
+    /// PointFit: added to each fitted extent, in pixels at the box's depth (half a pixel per
+    /// side: depth pixels are centres, the true edge lies up to half a pixel further out).
+    pub pointfit_edge_px: f64,
+    /// PointFit: silhouette polish iterations on the observed faces (0 = none).
+    pub polish_iters: u32,
+    /// PointFit: largest relative size change one polish step may make.
+    pub polish_max_rel_step: f64,
+}
+
+impl Default for ScaleConfig {
+    fn default() -> Self {
+        Self {
+            mode: ScaleMode::EarlyStopping,
+            template_mm: [300.0, 200.0, 150.0],
+            lower_mm: 20.0,
+            upper_mm: 1200.0,
+            tau_px: 10.0,
+            max_iters: 12,
+            tau_rot_deg: 2.0,
+            stable_steps: 2,
+            extent_trim_fraction: 0.0005,
+            occluder_margin_mm: 20.0,
+            pointfit_iters: 3,
+            pointfit_percentile: 0.5,
+            pointfit_edge_px: 1.0,
+            polish_iters: 2,
+            polish_max_rel_step: 0.15,
+        }
+    }
+}
+
+/// One pose estimate for a template size: what the loop needs from PoseEstimate(C(s)).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseSample {
+    /// Estimated pose; its `size_mm` is the template size that was asked for.
+    pub pose: OrientedBox,
+    /// Confidence, 0..1.
+    pub score: f64,
+    /// Depth-consistency penalty of the chosen hypothesis (paper §3).
+    pub depth_penalty: f64,
+}
+
+/// The paper's PoseEstimate(C(s)): a pose for a cuboid template of size `size_mm`, optionally
+/// seeded by the previous pose of the loop.
+pub trait PoseEstimator {
+    /// Error type of a failed estimate.
+    type Error;
+    /// Estimates the pose of a template of `size_mm` (mm).
+    fn estimate(
+        &mut self,
+        size_mm: &Vector3<f64>,
+        prior: Option<&OrientedBox>,
+    ) -> Result<PoseSample, Self::Error>;
+}
+
+impl<E, F> PoseEstimator for F
+where
+    F: FnMut(&Vector3<f64>, Option<&OrientedBox>) -> Result<PoseSample, E>,
+{
+    type Error = E;
+    fn estimate(
+        &mut self,
+        size_mm: &Vector3<f64>,
+        prior: Option<&OrientedBox>,
+    ) -> Result<PoseSample, E> {
+        self(size_mm, prior)
+    }
+}
+
+/// What the scale search sees of the observation.
+#[derive(Debug, Clone, Copy)]
+pub struct ScaleInputs<'a> {
+    /// Camera intrinsics.
+    pub intrinsics: &'a Intrinsics,
+    /// Depth map, mm (for occlusion checks at the mask border).
+    pub depth: &'a DepthMap,
+    /// Observed mask pixels `[u, v]`.
+    pub mask_pixels: &'a [[u32; 2]],
+    /// Observed 3D points (mask ∩ valid depth), camera frame, mm.
+    pub points_mm: &'a [Point3<f64>],
+    /// Unit normals of `points_mm` (same length), or empty if unknown.
+    pub normals: &'a [Vector3<f64>],
+}
+
+/// Fills the hidden (unobserved) axes of a size: given the current pose and which axes are
+/// observed, returns the size to use (observed axes unchanged).
+pub type HiddenFill<'f> = dyn FnMut(&OrientedBox, [bool; 3]) -> Vector3<f64> + 'f;
+
+/// Result of the scale search.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScaleOutcome {
+    /// Final pose; `size_mm` is the estimated size.
+    pub pose: OrientedBox,
+    /// Confidence of the final pose estimate, 0..1.
+    pub score: f64,
+    /// Depth-consistency penalty of the final pose estimate.
+    pub depth_penalty: f64,
+    /// Scale-loop iterations (mask comparisons).
+    pub iterations: u32,
+    /// Calls to the pose estimator.
+    pub pose_calls: u32,
+    /// Algorithm 2 fired.
+    pub stopped_early: bool,
+    /// The extent error reached τ_px (Algorithm 1) or the point fit settled (PointFit).
+    pub converged: bool,
+    /// Axes observed by the points (per the final pose's axes); `[true; 3]` when not assessed.
+    pub observed_axes: [bool; 3],
+}
+
+/// Observed extents with per-axis "only a lower bound" flags.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObservedExtents {
+    /// Extents of the observed mask, px.
+    pub extents: Extents,
+    /// The mask ends at an occluder or the image border on at least one side of this axis.
+    pub lower_bound_only: [bool; 3],
+}
+
+/// Checks, for each observable axis, whether the mask's extreme pixels on either side touch an
+/// occluder (depth clearly closer just outside the mask) or the image border.
+pub fn observed_extents_checked(
+    inputs: &ScaleInputs<'_>,
+    dirs: &AxisDirections,
+    cfg: &ScaleConfig,
+    scratch: &mut Vec<f64>,
+) -> ObservedExtents {
+    let pixels = inputs.mask_pixels;
+    let trim = trim_count(pixels.len(), cfg.extent_trim_fraction);
+    let mut out = ObservedExtents {
+        extents: Extents { px: [None; 3] },
+        lower_bound_only: [false; 3],
+    };
+    for a in 0..3 {
+        let Some(d) = dirs.dirs[a] else { continue };
+        let Some(span) = mask_span(pixels, &d, trim, scratch) else {
+            continue;
+        };
+        out.extents.px[a] = Some(span.hi - span.lo + 1.0);
+        out.lower_bound_only[a] = side_blocked(inputs, &d, span.hi, 1.0, cfg)
+            || side_blocked(inputs, &(-d), -span.lo, 1.0, cfg);
+    }
+    out
+}
+
+/// True when the mask pixels within 1.5 px of the extreme `edge` along `d` mostly border an
+/// occluder or the image border.
+fn side_blocked(
+    inputs: &ScaleInputs<'_>,
+    d: &Vector2<f64>,
+    edge: f64,
+    _w: f64,
+    cfg: &ScaleConfig,
+) -> bool {
+    let depth = inputs.depth;
+    let (w, h) = (i64::from(depth.width), i64::from(depth.height));
+    let mut n = 0usize;
+    let mut blocked = 0usize;
+    for p in inputs.mask_pixels {
+        let s = f64::from(p[0]) * d.x + f64::from(p[1]) * d.y;
+        if s < edge - 1.5 {
+            continue;
+        }
+        n += 1;
+        let pd = depth.get(p[0], p[1]);
+        // Step 3 px outward; the first pixel outside the image or clearly in front blocks.
+        let mut hit = false;
+        for step in 1..=3 {
+            let qu = (f64::from(p[0]) + d.x * f64::from(step)).round() as i64;
+            let qv = (f64::from(p[1]) + d.y * f64::from(step)).round() as i64;
+            if qu < 0 || qv < 0 || qu >= w || qv >= h {
+                hit = true;
+                break;
+            }
+            if let (Some(qd), Some(pd)) = (depth.get(qu as u32, qv as u32), pd) {
+                if f64::from(qd) < f64::from(pd) - cfg.occluder_margin_mm {
+                    hit = true;
+                    break;
+                }
+            }
+        }
+        if hit {
+            blocked += 1;
+        }
+    }
+    n > 0 && blocked * 10 >= n * 3
+}
+
+/// Geodesic angle between two rotations, modulo the 4 proper sign-flip symmetries of a box, deg.
+pub fn rotation_change_deg(a: &Rotation3<f64>, b: &Rotation3<f64>) -> f64 {
+    let rel = a.inverse() * b;
+    let m = rel.matrix();
+    let flips = [
+        [1.0, 1.0, 1.0],
+        [1.0, -1.0, -1.0],
+        [-1.0, 1.0, -1.0],
+        [-1.0, -1.0, 1.0],
+    ];
+    flips
+        .iter()
+        .map(|f| {
+            let tr = m[(0, 0)] * f[0] + m[(1, 1)] * f[1] + m[(2, 2)] * f[2];
+            ((tr - 1.0) / 2.0).clamp(-1.0, 1.0).acos().to_degrees()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Per-axis comparison used by Algorithms 1 and 2: `(e_cad, e_obs, lower_bound_only)` for the
+/// axes both define.
+fn compare(
+    pose: &OrientedBox,
+    inputs: &ScaleInputs<'_>,
+    cfg: &ScaleConfig,
+    scratch: &mut Vec<f64>,
+) -> [Option<(f64, f64, bool)>; 3] {
+    let mut out = [None; 3];
+    let Some(dirs) = axis_directions(pose, inputs.intrinsics) else {
+        return out;
+    };
+    let Some(cad) = rendered_extents(pose, inputs.intrinsics, &dirs) else {
+        return out;
+    };
+    let obs = observed_extents_checked(inputs, &dirs, cfg, scratch);
+    for a in 0..3 {
+        if let (Some(c), Some(o)) = (cad.px[a], obs.extents.px[a]) {
+            out[a] = Some((c, o, obs.lower_bound_only[a]));
+        }
+    }
+    out
+}
+
+/// Signed extent error used for decisions: positive = the template underfills the mask. When
+/// the observed extent is only a lower bound, an overfill is not evidence and counts as 0.
+fn signed_error(c: f64, o: f64, lower_only: bool) -> f64 {
+    let m = o - c;
+    if lower_only && m < 0.0 {
+        0.0
+    } else {
+        m
+    }
+}
+
+fn clamp_size(s: &Vector3<f64>, cfg: &ScaleConfig) -> Vector3<f64> {
+    s.map(|x| {
+        if x.is_finite() {
+            x.clamp(cfg.lower_mm, cfg.upper_mm)
+        } else {
+            cfg.lower_mm
+        }
+    })
+}
+
+/// Runs the configured scale search.
+///
+/// `hidden` (optional) fills unobserved axes from scene context; PointFit uses it inside its
+/// loop, the paper's modes ignore it (the pipeline applies context after them).
+pub fn scale_search<P: PoseEstimator>(
+    est: &mut P,
+    inputs: &ScaleInputs<'_>,
+    cfg: &ScaleConfig,
+    ctx_cfg: &ContextConfig,
+    hidden: Option<&mut HiddenFill<'_>>,
+) -> Result<ScaleOutcome, P::Error> {
+    match cfg.mode {
+        ScaleMode::Canonical => fixed(est, &Vector3::from(cfg.template_mm)),
+        ScaleMode::Oracle(s) => fixed(est, &Vector3::from(s)),
+        ScaleMode::BinarySearch => binary_search(est, inputs, cfg, false),
+        ScaleMode::EarlyStopping => binary_search(est, inputs, cfg, true),
+        ScaleMode::PointFit => point_fit(est, inputs, cfg, ctx_cfg, hidden),
+    }
+}
+
+fn fixed<P: PoseEstimator>(est: &mut P, size: &Vector3<f64>) -> Result<ScaleOutcome, P::Error> {
+    let s = est.estimate(size, None)?;
+    Ok(ScaleOutcome {
+        pose: s.pose,
+        score: s.score,
+        depth_penalty: s.depth_penalty,
+        iterations: 0,
+        pose_calls: 1,
+        stopped_early: false,
+        converged: true,
+        observed_axes: [true; 3],
+    })
+}
+
+/// Algorithm 1 (binary search), with Algorithm 2 (early stopping) when `early` is set.
+fn binary_search<P: PoseEstimator>(
+    est: &mut P,
+    inputs: &ScaleInputs<'_>,
+    cfg: &ScaleConfig,
+    early: bool,
+) -> Result<ScaleOutcome, P::Error> {
+    let mut scratch = Vec::new();
+    let mut s = clamp_size(&Vector3::from(cfg.template_mm), cfg);
+    let mut lo = Vector3::repeat(cfg.lower_mm);
+    let mut hi = Vector3::repeat(cfg.upper_mm);
+    let mut prior: Option<OrientedBox> = None;
+    let mut last: Option<PoseSample> = None;
+    let mut pose_calls = 0u32;
+    let mut iterations = 0u32;
+    let mut stable = 0u32;
+    let mut converged = false;
+    let mut stopped_early = false;
+    // Whether `s` changed since `last` was estimated.
+    let mut stale = true;
+    for _ in 0..cfg.max_iters.max(1) {
+        iterations += 1;
+        let sample = est.estimate(&s, prior.as_ref())?;
+        pose_calls += 1;
+        stale = false;
+        let pose = sample.pose;
+        if let Some(p) = &prior {
+            if rotation_change_deg(&p.rotation, &pose.rotation) <= cfg.tau_rot_deg {
+                stable += 1;
+            } else {
+                stable = 0;
+            }
+        }
+        let cmp = compare(&pose, inputs, cfg, &mut scratch);
+        let err = cmp
+            .iter()
+            .flatten()
+            .map(|(c, o, l)| signed_error(*c, *o, *l).abs())
+            .fold(0.0, f64::max);
+        last = Some(sample);
+        prior = Some(pose);
+        if err <= cfg.tau_px {
+            converged = true;
+            break;
+        }
+        if early && stable >= cfg.stable_steps.max(1) {
+            // Algorithm 2: proportional update, one last pose estimate, stop.
+            for a in 0..3 {
+                if let Some((c, o, l)) = cmp[a] {
+                    if c > 1e-9 {
+                        let r = if l { (o / c).max(1.0) } else { o / c };
+                        s[a] *= r;
+                    }
+                }
+            }
+            s = clamp_size(&s, cfg);
+            let sample = est.estimate(&s, prior.as_ref())?;
+            pose_calls += 1;
+            last = Some(sample);
+            stopped_early = true;
+            break;
+        }
+        for a in 0..3 {
+            if let Some((c, o, l)) = cmp[a] {
+                let m = signed_error(c, o, l);
+                if m > 0.0 {
+                    lo[a] = s[a];
+                } else if m < 0.0 {
+                    hi[a] = s[a];
+                }
+                s[a] = 0.5 * (lo[a] + hi[a]);
+            }
+        }
+        stale = true;
+    }
+    let mut out = match last {
+        Some(l) => l,
+        // max_iters ≥ 1, so the loop ran at least once.
+        None => est.estimate(&s, prior.as_ref())?,
+    };
+    if stale && !converged && !stopped_early {
+        // The loop ended on a size update: estimate the pose for the size it returns.
+        out = est.estimate(&s, prior.as_ref())?;
+        pose_calls += 1;
+    }
+    Ok(ScaleOutcome {
+        pose: out.pose,
+        score: out.score,
+        depth_penalty: out.depth_penalty,
+        iterations,
+        pose_calls,
+        stopped_early,
+        converged,
+        observed_axes: [true; 3],
+    })
+}
+
+/// Percentile (0..100) of a slice, by selection; `None` when empty.
+fn percentile(v: &mut [f64], pct: f64) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    let n = v.len();
+    let idx = ((pct / 100.0) * (n - 1) as f64)
+        .round()
+        .clamp(0.0, (n - 1) as f64) as usize;
+    Some(*v.select_nth_unstable_by(idx, f64::total_cmp).1)
+}
+
+/// Robust extents of the points along each box axis, using only points on faces spanning that
+/// axis (`face[i]` = normal axis of point i's face). `None` for axes without such points.
+pub fn point_extents_mm(
+    pose: &OrientedBox,
+    points: &[Point3<f64>],
+    face: &[Option<usize>],
+    pct: f64,
+) -> [Option<f64>; 3] {
+    let mut out = [None; 3];
+    let rt = pose.rotation.inverse();
+    let local: Vec<Vector3<f64>> = points
+        .iter()
+        .map(|p| rt * (p.coords - pose.center_mm))
+        .collect();
+    let mut buf = Vec::with_capacity(points.len());
+    for a in 0..3 {
+        buf.clear();
+        buf.extend(
+            local
+                .iter()
+                .zip(face)
+                .filter(|(_, f)| matches!(f, Some(fa) if *fa != a))
+                .map(|(l, _)| l[a]),
+        );
+        if buf.len() < 10 {
+            continue;
+        }
+        let lo = percentile(&mut buf, pct);
+        let hi = percentile(&mut buf, 100.0 - pct);
+        if let (Some(lo), Some(hi)) = (lo, hi) {
+            out[a] = Some(hi - lo);
+        }
+    }
+    out
+}
+
+/// The 4 corners of each face, box-frame, for a given size; face `(axis, sign)`.
+fn face_corners(size: &Vector3<f64>, axis: usize, sign: f64) -> [Vector3<f64>; 4] {
+    let h = size * 0.5;
+    let (b, c) = ((axis + 1) % 3, (axis + 2) % 3);
+    let mut out = [Vector3::zeros(); 4];
+    for (i, (sb, sc)) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+        .iter()
+        .enumerate()
+    {
+        let mut v = Vector3::zeros();
+        v[axis] = sign * h[axis];
+        v[b] = sb * h[b];
+        v[c] = sc * h[c];
+        out[i] = v;
+    }
+    out
+}
+
+/// Box-frame corners of the camera-facing faces whose normal axis is in `faces` (normal axis
+/// observed by the points), for the silhouette of what is actually seen.
+fn observed_face_corners(pose: &OrientedBox, faces: [bool; 3]) -> Vec<Vector3<f64>> {
+    let mut out = Vec::with_capacity(24);
+    for a in 0..3 {
+        if !faces[a] {
+            continue;
+        }
+        // The face of axis a that faces the camera: normal·(face centre) < 0.
+        let n = pose.axis(a);
+        let sign = if n.dot(&pose.center_mm) > 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
+        out.extend_from_slice(&face_corners(&pose.size_mm, a, sign));
+    }
+    out
+}
+
+/// anybox's PointFit mode (see [`ScaleMode::PointFit`]).
+fn point_fit<P: PoseEstimator>(
+    est: &mut P,
+    inputs: &ScaleInputs<'_>,
+    cfg: &ScaleConfig,
+    ctx_cfg: &ContextConfig,
+    mut hidden: Option<&mut HiddenFill<'_>>,
+) -> Result<ScaleOutcome, P::Error> {
+    let mut size = clamp_size(&Vector3::from(cfg.template_mm), cfg);
+    let mut sample = est.estimate(&size, None)?;
+    let mut pose_calls = 1u32;
+    let mut iterations = 0u32;
+    let mut converged = false;
+    let mut observed = [true; 3];
+    let mut faces = [true; 3];
+    for _ in 0..cfg.pointfit_iters.max(1) {
+        iterations += 1;
+        let pose = sample.pose;
+        let (counts, face) = face_point_counts(&pose, inputs.points_mm, inputs.normals, ctx_cfg);
+        let (obs_axes, obs_faces) = observed_axes_from_counts(&counts, ctx_cfg);
+        observed = obs_axes;
+        faces = obs_faces;
+        let ext = point_extents_mm(&pose, inputs.points_mm, &face, cfg.pointfit_percentile);
+        let mm_per_px =
+            pose.center_mm.z.max(1.0) / (0.5 * (inputs.intrinsics.fx + inputs.intrinsics.fy));
+        let mut new = size;
+        for a in 0..3 {
+            if observed[a] {
+                if let Some(e) = ext[a] {
+                    new[a] = e + cfg.pointfit_edge_px * mm_per_px;
+                }
+            }
+        }
+        let mut posed = pose;
+        posed.size_mm = clamp_size(&new, cfg);
+        if let Some(h) = hidden.as_deref_mut() {
+            if observed.iter().any(|o| !o) {
+                new = h(&posed, observed);
+            }
+        }
+        new = clamp_size(&new, cfg);
+        let change = (new - size).abs().max();
+        size = new;
+        sample = est.estimate(&size, Some(&pose))?;
+        pose_calls += 1;
+        if change < 1.0 {
+            converged = true;
+            break;
+        }
+    }
+    // Silhouette polish on the observed faces: Newton steps on the extents of the observed axes
+    // whose mask sides are free (not occluded, not truncated).
+    let mut scratch = Vec::new();
+    for _ in 0..cfg.polish_iters {
+        let pose = sample.pose;
+        let Some(dirs) = axis_directions(&pose, inputs.intrinsics) else {
+            break;
+        };
+        let obs = observed_extents_checked(inputs, &dirs, cfg, &mut scratch);
+        let corners = observed_face_corners(&pose, faces);
+        let Some(cad) = extents_of_local_points(&pose, inputs.intrinsics, &corners, &dirs) else {
+            break;
+        };
+        // Axes that the polish may move: observed, with a usable, unblocked extent.
+        let usable: Vec<usize> = (0..3)
+            .filter(|&a| {
+                observed[a]
+                    && !obs.lower_bound_only[a]
+                    && cad.px[a].is_some()
+                    && obs.extents.px[a].is_some()
+            })
+            .collect();
+        if usable.is_empty() {
+            break;
+        }
+        // Numeric Jacobian d e_a / d s_b over the usable axes (1 mm steps, corners only).
+        let mut jac = Matrix3::<f64>::identity();
+        let mut ok = true;
+        for (j, &b) in usable.iter().enumerate() {
+            let mut p2 = pose;
+            p2.size_mm[b] += 1.0;
+            // Keep the observed faces in place: the visible face on axis b stays put.
+            let n = pose.axis(b);
+            let sign = if n.dot(&pose.center_mm) > 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
+            p2.center_mm += n * (0.5 * sign);
+            let c2 = observed_face_corners(&p2, faces);
+            let Some(e2) = extents_of_local_points(&p2, inputs.intrinsics, &c2, &dirs) else {
+                ok = false;
+                break;
+            };
+            for (i, &a) in usable.iter().enumerate() {
+                if let (Some(x2), Some(x)) = (e2.px[a], cad.px[a]) {
+                    jac[(i, j)] = x2 - x;
+                }
+            }
+        }
+        if !ok {
+            break;
+        }
+        let k = usable.len();
+        let mut resid = Vector3::zeros();
+        for (i, &a) in usable.iter().enumerate() {
+            if let (Some(o), Some(c)) = (obs.extents.px[a], cad.px[a]) {
+                resid[i] = o - c;
+            }
+        }
+        let sub = jac.view((0, 0), (k, k)).into_owned();
+        let Some(inv) = sub.try_inverse() else { break };
+        let step = inv * resid.rows(0, k);
+        let mut new = size;
+        let mut max_px = 0.0f64;
+        for (i, &a) in usable.iter().enumerate() {
+            let lim = cfg.polish_max_rel_step * size[a];
+            new[a] = size[a] + step[i].clamp(-lim, lim);
+            max_px = max_px.max(resid[i].abs());
+        }
+        if max_px < 0.5 {
+            break;
+        }
+        size = clamp_size(&new, cfg);
+        iterations += 1;
+        sample = est.estimate(&size, Some(&pose))?;
+        pose_calls += 1;
+    }
+    // Report observed axes for the final pose.
+    let (counts, _) = face_point_counts(&sample.pose, inputs.points_mm, inputs.normals, ctx_cfg);
+    let (obs_axes, _) = observed_axes_from_counts(&counts, ctx_cfg);
+    observed = obs_axes;
+    Ok(ScaleOutcome {
+        pose: sample.pose,
+        score: sample.score,
+        depth_penalty: sample.depth_penalty,
+        iterations,
+        pose_calls,
+        stopped_early: false,
+        converged,
+        observed_axes: observed,
+    })
+}

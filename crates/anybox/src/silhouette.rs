@@ -1,1 +1,425 @@
-//! (stage module; being written)
+//! The cuboid silhouette and per-axis pixel extents (paper §3 "Scale Estimation", SPEC §1).
+//!
+//! In: a posed box ([`OrientedBox`]), the camera [`Intrinsics`], and an observed instance mask.
+//! Out: the rendered silhouette (the convex hull of the projected corners, rasterised on demand)
+//! and, for each of the three box axes, the pixel extent of the rendered and of the observed mask
+//! measured along that axis' image direction ([`Extents`]).
+//!
+//! Definitions used throughout the scale search:
+//! - The *image direction* `d_a` of box axis `a` is the unit 2D direction of the projection of the
+//!   axis at the box centre (the Jacobian of the pinhole projection applied to the axis).
+//! - `px_per_mm[a]` is the length of that projection, pixels per millimetre of box extent, and the
+//!   *foreshortening* `px_per_mm[a] / (f / z)` is in `[0, 1]`: 1 for an axis parallel to the image
+//!   plane, 0 for an axis along the viewing ray. Below [`MIN_FORESHORTENING`] the silhouette says
+//!   nothing useful about that axis (its direction is ill-defined and its extent does not react to
+//!   its size), so the axis is marked not observable here.
+//! - The extent `e_a` is `max − min` of `pixel · d_a`: over the projected corners for the rendered
+//!   box (the hull's extreme points are corners), over the mask pixels for the observed mask. Mask
+//!   pixels are centres at integer coordinates, so a mask spanning `n` pixels has centres `n − 1`
+//!   apart; one pixel is added to the observed extent so that both measure the same thing.
+
+use anybox_geom::{Intrinsics, OrientedBox};
+use anybox_io::Mask;
+use nalgebra::{Point2, Point3, Vector2, Vector3};
+
+/// Axes whose foreshortening is below this (≈ 11.5° between the axis and the viewing ray) have
+/// no usable silhouette extent.
+pub const MIN_FORESHORTENING: f64 = 0.2;
+
+/// Image directions of the three box axes at the current pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxisDirections {
+    /// Unit image direction of each box axis (px space); `None` where not observable.
+    pub dirs: [Option<Vector2<f64>>; 3],
+    /// Projected length of one millimetre of each axis at the box centre, px/mm.
+    pub px_per_mm: [f64; 3],
+    /// `px_per_mm` divided by the focal length over depth: 1 = parallel to the image plane.
+    pub foreshortening: [f64; 3],
+}
+
+/// Per-axis pixel extents along [`AxisDirections`]; `None` where the axis is not observable.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Extents {
+    /// Extent along each axis' image direction, px.
+    pub px: [Option<f64>; 3],
+}
+
+impl Extents {
+    /// Largest absolute difference over the axes both extents define, px (0 when none).
+    pub fn max_abs_diff_px(&self, other: &Extents) -> f64 {
+        (0..3)
+            .filter_map(|a| match (self.px[a], other.px[a]) {
+                (Some(x), Some(y)) => Some((x - y).abs()),
+                _ => None,
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// Image directions of the box axes at the box centre.
+///
+/// Returns `None` when the box centre is not in front of the camera.
+pub fn axis_directions(pose: &OrientedBox, k: &Intrinsics) -> Option<AxisDirections> {
+    let c = pose.center_mm;
+    if !(c.z > 1e-6) || !c.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    let z = c.z;
+    let f_mean = 0.5 * (k.fx + k.fy);
+    let mut out = AxisDirections {
+        dirs: [None; 3],
+        px_per_mm: [0.0; 3],
+        foreshortening: [0.0; 3],
+    };
+    for a in 0..3 {
+        let r = pose.axis(a);
+        // Jacobian of (fx x/z + cx, fy y/z + cy) at c, applied to r.
+        let du = k.fx * (r.x / z - c.x * r.z / (z * z));
+        let dv = k.fy * (r.y / z - c.y * r.z / (z * z));
+        let v = Vector2::new(du, dv);
+        let len = v.norm();
+        out.px_per_mm[a] = len;
+        // Normalise by the projection of a unit vector parallel to the image plane at depth z.
+        let fs = len * z / f_mean;
+        out.foreshortening[a] = fs;
+        if fs >= MIN_FORESHORTENING && len > 0.0 {
+            out.dirs[a] = Some(v / len);
+        }
+    }
+    Some(out)
+}
+
+/// Projects the 8 corners to pixels; `None` if any corner is not in front of the camera.
+pub fn project_corners_px(pose: &OrientedBox, k: &Intrinsics) -> Option<[Point2<f64>; 8]> {
+    let corners = pose.corners_mm();
+    let mut out = [Point2::origin(); 8];
+    for (o, c) in out.iter_mut().zip(corners.iter()) {
+        *o = k.project(c)?;
+    }
+    Some(out)
+}
+
+/// Extents of the rendered cuboid silhouette along `dirs`: over the projected corners, px.
+///
+/// `None` when a corner is behind the camera.
+pub fn rendered_extents(
+    pose: &OrientedBox,
+    k: &Intrinsics,
+    dirs: &AxisDirections,
+) -> Option<Extents> {
+    let px = project_corners_px(pose, k)?;
+    Some(extents_of_points(&px, dirs))
+}
+
+/// Extents of a point set (e.g. projected corners) along `dirs`, px.
+pub fn extents_of_points(px: &[Point2<f64>], dirs: &AxisDirections) -> Extents {
+    let mut out = Extents { px: [None; 3] };
+    for a in 0..3 {
+        if let Some(d) = dirs.dirs[a] {
+            let (lo, hi) = px
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                    let s = p.coords.dot(&d);
+                    (lo.min(s), hi.max(s))
+                });
+            if lo.is_finite() && hi.is_finite() {
+                out.px[a] = Some(hi - lo);
+            }
+        }
+    }
+    out
+}
+
+/// Robust extreme values of `pixel · d` over the observed mask pixels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MaskSpan {
+    /// Low end (after trimming), px along `d`.
+    pub lo: f64,
+    /// High end (after trimming), px along `d`.
+    pub hi: f64,
+}
+
+/// Span of the mask pixels along `d`, dropping `trim` pixels at each end against ragged edges.
+///
+/// `scratch` is reused between calls to avoid allocation. `None` for an empty pixel list.
+pub fn mask_span(
+    pixels: &[[u32; 2]],
+    d: &Vector2<f64>,
+    trim: usize,
+    scratch: &mut Vec<f64>,
+) -> Option<MaskSpan> {
+    if pixels.is_empty() {
+        return None;
+    }
+    scratch.clear();
+    scratch.extend(
+        pixels
+            .iter()
+            .map(|p| f64::from(p[0]) * d.x + f64::from(p[1]) * d.y),
+    );
+    let n = scratch.len();
+    let trim = trim.min((n - 1) / 2);
+    let lo = if trim == 0 {
+        scratch.iter().copied().fold(f64::INFINITY, f64::min)
+    } else {
+        *scratch.select_nth_unstable_by(trim, f64::total_cmp).1
+    };
+    let hi = if trim == 0 {
+        scratch.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+    } else {
+        *scratch
+            .select_nth_unstable_by(n - 1 - trim, f64::total_cmp)
+            .1
+    };
+    Some(MaskSpan { lo, hi })
+}
+
+/// Number of pixels to trim at each end for `n` mask pixels and a trim fraction.
+pub fn trim_count(n: usize, trim_fraction: f64) -> usize {
+    if !(trim_fraction > 0.0) {
+        return 0;
+    }
+    ((n as f64) * trim_fraction).floor() as usize
+}
+
+/// Extents of the observed mask along `dirs`, px (one pixel added, see the module docs).
+pub fn observed_extents(
+    pixels: &[[u32; 2]],
+    dirs: &AxisDirections,
+    trim_fraction: f64,
+    scratch: &mut Vec<f64>,
+) -> Extents {
+    let trim = trim_count(pixels.len(), trim_fraction);
+    let mut out = Extents { px: [None; 3] };
+    for a in 0..3 {
+        if let Some(d) = dirs.dirs[a] {
+            out.px[a] = mask_span(pixels, &d, trim, scratch).map(|s| s.hi - s.lo + 1.0);
+        }
+    }
+    out
+}
+
+/// The pixels of a mask as `[u, v]` pairs, row-major order.
+pub fn mask_pixels(mask: &Mask) -> Vec<[u32; 2]> {
+    let w = mask.width as usize;
+    if w == 0 {
+        return Vec::new();
+    }
+    mask.data
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| **b)
+        .map(|(i, _)| [(i % w) as u32, (i / w) as u32])
+        .collect()
+}
+
+/// 2D convex hull (Andrew's monotone chain), counter-clockwise in a y-up frame, no collinear points.
+pub fn convex_hull(points: &[Point2<f64>]) -> Vec<Point2<f64>> {
+    let mut pts: Vec<Point2<f64>> = points
+        .iter()
+        .copied()
+        .filter(|p| p.x.is_finite() && p.y.is_finite())
+        .collect();
+    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    pts.dedup();
+    if pts.len() < 3 {
+        return pts;
+    }
+    let cross = |o: &Point2<f64>, a: &Point2<f64>, b: &Point2<f64>| {
+        (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x)
+    };
+    let mut hull: Vec<Point2<f64>> = Vec::with_capacity(2 * pts.len());
+    for p in pts.iter() {
+        while hull.len() >= 2 && cross(&hull[hull.len() - 2], &hull[hull.len() - 1], p) <= 0.0 {
+            hull.pop();
+        }
+        hull.push(*p);
+    }
+    let lower_len = hull.len() + 1;
+    for p in pts.iter().rev().skip(1) {
+        while hull.len() >= lower_len
+            && cross(&hull[hull.len() - 2], &hull[hull.len() - 1], p) <= 0.0
+        {
+            hull.pop();
+        }
+        hull.push(*p);
+    }
+    hull.pop();
+    hull
+}
+
+/// The cuboid silhouette: convex hull of the projected corners, px. `None` if a corner is behind
+/// the camera.
+pub fn silhouette_hull_px(pose: &OrientedBox, k: &Intrinsics) -> Option<Vec<Point2<f64>>> {
+    project_corners_px(pose, k).map(|c| convex_hull(&c))
+}
+
+/// Rasterises a convex polygon: pixel `(u, v)` is set when its centre `(u, v)` lies inside.
+pub fn rasterize_convex(poly: &[Point2<f64>], width: u32, height: u32) -> Mask {
+    let mut mask = Mask::empty(width, height);
+    if poly.len() < 3 || width == 0 || height == 0 {
+        return mask;
+    }
+    let (ymin, ymax) = poly
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.y), b.max(p.y))
+        });
+    let v0 = ymin.ceil().max(0.0);
+    let v1 = ymax.floor().min(f64::from(height) - 1.0);
+    if !(v0 <= v1) {
+        return mask;
+    }
+    let n = poly.len();
+    let mut v = v0;
+    while v <= v1 {
+        let mut xl = f64::INFINITY;
+        let mut xr = f64::NEG_INFINITY;
+        for i in 0..n {
+            let p = poly[i];
+            let q = poly[(i + 1) % n];
+            let (lo, hi) = if p.y <= q.y { (p, q) } else { (q, p) };
+            if v < lo.y || v > hi.y {
+                continue;
+            }
+            let x = if (hi.y - lo.y).abs() < 1e-12 {
+                xl = xl.min(lo.x.min(hi.x));
+                xr = xr.max(lo.x.max(hi.x));
+                continue;
+            } else {
+                lo.x + (v - lo.y) * (hi.x - lo.x) / (hi.y - lo.y)
+            };
+            xl = xl.min(x);
+            xr = xr.max(x);
+        }
+        let u0 = xl.ceil().max(0.0);
+        let u1 = xr.floor().min(f64::from(width) - 1.0);
+        if u0 <= u1 {
+            let row = v as usize * width as usize;
+            for u in (u0 as usize)..=(u1 as usize) {
+                mask.data[row + u] = true;
+            }
+        }
+        v += 1.0;
+    }
+    mask
+}
+
+/// Renders the cuboid silhouette mask (the paper's RenderMask(C(s), T, K)).
+pub fn render_silhouette(pose: &OrientedBox, k: &Intrinsics, width: u32, height: u32) -> Mask {
+    match silhouette_hull_px(pose, k) {
+        Some(h) => rasterize_convex(&h, width, height),
+        None => Mask::empty(width, height),
+    }
+}
+
+/// Extents of the hull of an arbitrary set of box-frame points (e.g. the corners of the observed
+/// faces only), px; `None` if a point is behind the camera.
+pub fn extents_of_local_points(
+    pose: &OrientedBox,
+    k: &Intrinsics,
+    local_mm: &[Vector3<f64>],
+    dirs: &AxisDirections,
+) -> Option<Extents> {
+    let mut px = Vec::with_capacity(local_mm.len());
+    for l in local_mm {
+        let p: Point3<f64> = pose.to_camera(l);
+        px.push(k.project(&p)?);
+    }
+    Some(extents_of_points(&px, dirs))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Rotation3;
+
+    fn cam() -> Intrinsics {
+        Intrinsics::new(600.0, 600.0, 320.0, 240.0).unwrap()
+    }
+
+    fn pose() -> OrientedBox {
+        OrientedBox::new(
+            Rotation3::from_euler_angles(0.4, -0.3, 0.7),
+            Vector3::new(20.0, -10.0, 900.0),
+            Vector3::new(300.0, 200.0, 150.0),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn rendered_and_rasterised_extents_agree() {
+        let k = cam();
+        let b = pose();
+        let dirs = axis_directions(&b, &k).unwrap();
+        let analytic = rendered_extents(&b, &k, &dirs).unwrap();
+        let m = render_silhouette(&b, &k, 640, 480);
+        let pix = mask_pixels(&m);
+        let mut s = Vec::new();
+        let raster = observed_extents(&pix, &dirs, 0.0, &mut s);
+        for a in 0..3 {
+            let (x, y) = (analytic.px[a].unwrap(), raster.px[a].unwrap());
+            // Pixel centres lose at most ~1 px at sharp corners.
+            assert!((x - y).abs() < 2.0, "axis {a}: {x} vs {y}");
+        }
+        // The raster area matches the hull's shoelace area.
+        let h = silhouette_hull_px(&b, &k).unwrap();
+        let area: f64 = (0..h.len())
+            .map(|i| {
+                let (p, q) = (h[i], h[(i + 1) % h.len()]);
+                p.x * q.y - q.x * p.y
+            })
+            .sum::<f64>()
+            .abs()
+            / 2.0;
+        let n = m.count() as f64;
+        assert!((n - area).abs() / area < 0.02, "{n} vs {area}");
+    }
+
+    #[test]
+    fn axis_along_view_ray_is_not_observable() {
+        let k = cam();
+        // Box straight ahead with its z axis along the optical axis.
+        let b = OrientedBox::new(
+            Rotation3::identity(),
+            Vector3::new(0.0, 0.0, 1000.0),
+            Vector3::new(100.0, 100.0, 100.0),
+        )
+        .unwrap();
+        let d = axis_directions(&b, &k).unwrap();
+        assert!(d.dirs[0].is_some() && d.dirs[1].is_some());
+        assert!(d.dirs[2].is_none());
+        assert!((d.px_per_mm[0] - 0.6).abs() < 1e-9);
+        assert!((d.foreshortening[0] - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn extents_grow_linearly_with_size_for_parallel_axis() {
+        let k = cam();
+        let mut b = OrientedBox::new(
+            Rotation3::identity(),
+            Vector3::new(0.0, 0.0, 1000.0),
+            Vector3::new(100.0, 80.0, 60.0),
+        )
+        .unwrap();
+        let d = axis_directions(&b, &k).unwrap();
+        let e0 = rendered_extents(&b, &k, &d).unwrap();
+        // Front face at z = 970 is closest: x extent = 100 * 600 / 970.
+        assert!((e0.px[0].unwrap() - 100.0 * 600.0 / 970.0).abs() < 1e-6);
+        b.size_mm.x = 200.0;
+        let e1 = rendered_extents(&b, &k, &d).unwrap();
+        assert!((e1.px[0].unwrap() - 200.0 * 600.0 / 970.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn trimmed_span_ignores_outliers() {
+        let mut pix: Vec<[u32; 2]> = (0..100).map(|i| [i, 0]).collect();
+        pix.push([500, 0]);
+        let mut s = Vec::new();
+        let d = Vector2::new(1.0, 0.0);
+        let full = mask_span(&pix, &d, 0, &mut s).unwrap();
+        assert_eq!(full.hi, 500.0);
+        let t = mask_span(&pix, &d, 1, &mut s).unwrap();
+        assert_eq!((t.lo, t.hi), (1.0, 99.0));
+    }
+}
