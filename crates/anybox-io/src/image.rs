@@ -132,7 +132,7 @@ use crate::fsutil::{read_bytes, write_atomic};
 use crate::IoError;
 
 /// Human-readable name of a decoded colour type, e.g. "8-bit RGB".
-fn describe_color(c: ColorType) -> &'static str {
+pub(crate) fn describe_color(c: ColorType) -> &'static str {
     match c {
         ColorType::L8 => "8-bit grayscale",
         ColorType::La8 => "8-bit grayscale+alpha",
