@@ -1,0 +1,96 @@
+//! Times the generator and writes preview images.
+//!
+//! `cargo run --release -p anybox-synth --example synth_timing -- [OUT_DIR] [N_VIEWS]`
+//! prints the time of one 640×480 view per layout and of N views (default 100, mixed layout),
+//! and, when OUT_DIR is given, writes `LAYOUT_rgb.png`, `LAYOUT_depth.png` (grey, near = bright)
+//! and `LAYOUT_masks.png` (visible masks in false colour) there.
+
+use std::time::Instant;
+
+use anybox_synth::{generate_view, Layout, NoiseModel, SynthConfig};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let out = args.get(1).cloned();
+    let n: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(100);
+    for layout in [Layout::Pallet, Layout::Table, Layout::Shelf] {
+        let cfg = SynthConfig {
+            layout,
+            noise: NoiseModel::Realistic,
+            ..SynthConfig::default()
+        };
+        let t0 = Instant::now();
+        let v = generate_view(&cfg, 0, 0);
+        let dt = t0.elapsed().as_secs_f64();
+        println!(
+            "{layout}: one view {:.1} ms, {} boxes, {} distractors, camera {}, visib {:?}",
+            dt * 1e3,
+            v.boxes.len(),
+            v.distractors,
+            v.camera,
+            v.boxes
+                .iter()
+                .map(|b| (b.visib_fract * 100.0).round() / 100.0)
+                .collect::<Vec<_>>()
+        );
+        if let Some(dir) = &out {
+            std::fs::create_dir_all(dir).expect("create preview dir");
+            v.rgb
+                .save(format!("{dir}/{layout}_rgb.png"))
+                .expect("write rgb");
+            let (w, h) = (v.depth.width, v.depth.height);
+            let zmax = v.depth.depth_mm.iter().cloned().fold(1.0f32, f32::max);
+            let grey = image::GrayImage::from_fn(w, h, |u, q| {
+                let d = v.depth.depth_mm[(q * w + u) as usize];
+                image::Luma([if d > 0.0 {
+                    (255.0 * (1.0 - d / zmax)) as u8
+                } else {
+                    0
+                }])
+            });
+            grey.save(format!("{dir}/{layout}_depth.png"))
+                .expect("write depth");
+            let mut m = image::RgbImage::new(w, h);
+            for (i, b) in v.boxes.iter().enumerate() {
+                let c = [
+                    (i * 97 % 200 + 55) as u8,
+                    (i * 57 % 200 + 55) as u8,
+                    (i * 151 % 200 + 55) as u8,
+                ];
+                for q in 0..h {
+                    for u in 0..w {
+                        if b.mask_visib.get(u, q) {
+                            m.put_pixel(u, q, image::Rgb(c));
+                        }
+                    }
+                }
+            }
+            m.save(format!("{dir}/{layout}_masks.png"))
+                .expect("write masks");
+        }
+    }
+    let cfg = SynthConfig {
+        layout: Layout::Mixed,
+        scenes: n.div_ceil(4),
+        views: 4,
+        ..SynthConfig::default()
+    };
+    let t0 = Instant::now();
+    let mut boxes = 0;
+    let mut count = 0;
+    'outer: for s in 0..cfg.scenes {
+        for v in 0..cfg.views {
+            if count == n {
+                break 'outer;
+            }
+            boxes += generate_view(&cfg, s, v).boxes.len();
+            count += 1;
+        }
+    }
+    let dt = t0.elapsed().as_secs_f64();
+    println!(
+        "{count} views (mixed, sequential calls): {:.2} s total, {:.1} ms/view, {boxes} boxes",
+        dt,
+        dt * 1e3 / count as f64
+    );
+}
