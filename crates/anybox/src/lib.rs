@@ -9,9 +9,13 @@
 //! 6. [`scale`] (with [`silhouette`] and [`context`]) — Algorithms 1 and 2, hidden dimensions;
 //! 7. [`pipeline`] — one mask or one frame in, boxes out. [`config`] holds every parameter.
 //!
+//! Around the pipeline: [`runner`] runs it over a BOP dataset or one frame and writes result
+//! records, [`overlay`] draws the boxes, [`bench`] compares the estimator variants.
+//!
 //! Evaluation ([`eval`]) and the synthetic generator ([`synth`]) are their own crates,
 //! re-exported here.
 
+pub mod bench;
 pub mod config;
 pub mod context;
 pub mod depth_filter;
@@ -22,6 +26,7 @@ pub mod overlay;
 pub mod pipeline;
 pub mod pose;
 pub mod refine;
+pub mod runner;
 pub mod scale;
 pub mod segmentation;
 pub mod silhouette;

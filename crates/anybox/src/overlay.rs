@@ -5,7 +5,7 @@
 //! built-in 5×7 pixel font, so no font file is needed.
 
 use anybox_geom::cuboid::EDGES;
-use anybox_geom::nalgebra::{Point3, Vector3};
+use anybox_geom::nalgebra::Point3;
 use anybox_geom::{Intrinsics, OrientedBox};
 use anybox_io::{DepthMap, RgbImage};
 
@@ -183,26 +183,17 @@ pub fn draw_text(img: &mut RgbImage, x: i64, y: i64, text: &str, c: [u8; 3]) {
     }
 }
 
-/// Unit vector helper kept private to this module's tests.
-#[cfg(test)]
-fn unit(v: Vector3<f64>) -> Vector3<f64> {
-    v.normalize()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use anybox_geom::nalgebra::Rotation3;
+    use anybox_geom::nalgebra::{Rotation3, Unit, Vector3};
 
     #[test]
     fn draws_inside_the_projected_box_and_survives_boxes_behind_the_camera() {
         let k = Intrinsics::new(500.0, 500.0, 320.0, 240.0).unwrap();
         let mut img = RgbImage::new(640, 480);
         let pose = OrientedBox::new(
-            Rotation3::from_axis_angle(
-                &anybox_geom::nalgebra::Unit::new_normalize(unit(Vector3::new(1.0, 1.0, 0.0))),
-                0.4,
-            ),
+            Rotation3::from_axis_angle(&Unit::new_normalize(Vector3::new(1.0, 1.0, 0.0)), 0.4),
             Vector3::new(0.0, 0.0, 1000.0),
             Vector3::new(200.0, 150.0, 100.0),
         )

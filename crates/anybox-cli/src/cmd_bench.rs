@@ -1,0 +1,82 @@
+//! `anybox bench`: every estimator variant on the same instances, as a markdown table.
+
+use std::path::PathBuf;
+
+use anyhow::Context as _;
+use clap::Args;
+
+use anybox::bench::{bop_set, default_variants, markdown_table, run_variant, synthetic_set, BenchSet};
+use anybox::io::bop::BopDataset;
+
+/// Benchmark the estimator variants (full, no depth filter, no early stopping, canonical size,
+/// oracle size, our own modes) on a generated benchmark and on ycbv-boxes. Ground-truth masks;
+/// sizes and errors in mm; time per box single-threaded, frame time with all cores.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Run on this BOP dataset instead of the generated benchmark.
+    #[arg(long, value_name = "DIR")]
+    pub dataset: Option<PathBuf>,
+    /// Split of --dataset.
+    #[arg(long, default_value = "test")]
+    pub split: String,
+    /// The real ycbv-boxes dataset (skipped with a note when absent).
+    #[arg(long, value_name = "DIR", default_value = "../shared/data/ycbv-boxes")]
+    pub ycbv: PathBuf,
+    /// Seed of the generated benchmark.
+    #[arg(long, default_value_t = 2026)]
+    pub seed: u64,
+    /// Minimum number of boxes in the generated benchmark.
+    #[arg(long, default_value_t = 150)]
+    pub instances: usize,
+    /// Only boxes with at least this visible fraction are estimated and counted.
+    #[arg(long, default_value_t = 0.5, value_name = "F")]
+    pub min_visib: f64,
+    /// Only run the variants whose name contains this text.
+    #[arg(long)]
+    pub only: Option<String>,
+    /// Also write the markdown to this file.
+    #[arg(long, value_name = "MD")]
+    pub markdown: Option<PathBuf>,
+}
+
+pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    let mut sets: Vec<BenchSet> = Vec::new();
+    match &args.dataset {
+        Some(root) => {
+            let ds = BopDataset::open(root, &args.split)?;
+            sets.push(bop_set(&ds, &root.display().to_string(), args.min_visib)?);
+        }
+        None => {
+            eprintln!("generating the benchmark (seed {}) …", args.seed);
+            sets.push(synthetic_set(args.seed, args.instances, args.min_visib));
+        }
+    }
+    if args.ycbv.join("test").is_dir() {
+        let ds = BopDataset::open(&args.ycbv, "test")?;
+        sets.push(bop_set(&ds, "ycbv-boxes (real, Asus Xtion)", 0.1)?);
+    } else {
+        eprintln!("note: {} not found; skipping the ycbv-boxes table", args.ycbv.display());
+    }
+    let variants: Vec<_> = default_variants()
+        .into_iter()
+        .filter(|v| args.only.as_ref().is_none_or(|o| v.name.contains(o.as_str())))
+        .collect();
+    let mut md = String::new();
+    for set in &sets {
+        let min_visib = if set.name.starts_with("ycbv") { 0.1 } else { args.min_visib };
+        let mut results = Vec::new();
+        for v in &variants {
+            eprintln!("{}: {} …", set.name, v.name);
+            results.push(run_variant(set, v, min_visib));
+        }
+        let table = markdown_table(set, &results);
+        println!("{table}");
+        md.push_str(&table);
+        md.push('\n');
+    }
+    if let Some(p) = &args.markdown {
+        anybox::io::write_atomic(p, md.as_bytes())
+            .with_context(|| format!("{}: cannot write markdown", p.display()))?;
+    }
+    Ok(())
+}

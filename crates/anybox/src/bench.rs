@@ -1,0 +1,377 @@
+//! The benchmark behind `anybox bench`: every estimator variant on the same instances, scored
+//! with the evaluator, timed per box (single-threaded) and per frame (all cores).
+//!
+//! In: a [`BenchSet`] (generated with a fixed seed, or read from a BOP dataset) and a list of
+//! [`Variant`]s. Out: one [`VariantResult`] per variant and a markdown table.
+//!
+//! Every figure is reported twice: for boxes whose three dimensions are all observed in the
+//! view (`anybox_eval::observed_dims` count = 3) and for all boxes.
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use anybox_eval::{evaluate, observed_dims, EstEntry, EvalOptions, GtEntry, Report};
+use anybox_geom::{Intrinsics, OrientedBox};
+use anybox_io::bop::BopDataset;
+use anybox_io::{DepthMap, IoError, Mask};
+use anybox_synth::{generate_view, Layout, NoiseModel, SynthConfig};
+
+use crate::config::Config;
+use crate::pipeline::{estimate_box, estimate_frame};
+
+/// One ground-truth instance of a benchmark frame.
+#[derive(Debug, Clone)]
+pub struct BenchInstance {
+    /// Index of the ground truth in its view.
+    pub gt_index: usize,
+    /// The visible mask (ground truth).
+    pub mask: Mask,
+    /// The true box.
+    pub gt: OrientedBox,
+    /// Visible fraction of the box.
+    pub visib_fract: f64,
+    /// How many of the box's dimensions the view shows (0–3).
+    pub observed_dims: u8,
+}
+
+/// One frame of a benchmark set.
+#[derive(Debug, Clone)]
+pub struct BenchFrame {
+    /// BOP scene id.
+    pub scene_id: u32,
+    /// BOP image id.
+    pub im_id: u32,
+    /// Layout name (`pallet`, `table`, `shelf`, or the dataset name).
+    pub layout: String,
+    /// Depth, mm.
+    pub depth: DepthMap,
+    /// Camera.
+    pub intrinsics: Intrinsics,
+    /// Instances to estimate (visible fraction at or above the set's threshold).
+    pub instances: Vec<BenchInstance>,
+}
+
+/// A named set of frames.
+#[derive(Debug, Clone)]
+pub struct BenchSet {
+    /// Name printed in the table heading.
+    pub name: String,
+    /// Frames.
+    pub frames: Vec<BenchFrame>,
+}
+
+impl BenchSet {
+    /// Number of instances.
+    pub fn n_instances(&self) -> usize {
+        self.frames.iter().map(|f| f.instances.len()).sum()
+    }
+
+    /// Number of instances with all three dimensions observed.
+    pub fn n_full_dims(&self) -> usize {
+        self.frames
+            .iter()
+            .flat_map(|f| &f.instances)
+            .filter(|i| i.observed_dims == 3)
+            .count()
+    }
+}
+
+/// The default generated benchmark: mixed pallet/table/shelf scenes with realistic noise and a
+/// fixed seed, grown scene by scene until it holds at least `min_instances` boxes with a
+/// visible fraction of at least `min_visib`.
+pub fn synthetic_set(seed: u64, min_instances: usize, min_visib: f64) -> BenchSet {
+    let cfg = SynthConfig {
+        layout: Layout::Mixed,
+        scenes: u32::MAX,
+        views: 1,
+        distractors: None,
+        seed,
+        noise: NoiseModel::Realistic,
+        ..SynthConfig::default()
+    };
+    let mut frames = Vec::new();
+    let mut n = 0;
+    let mut scene = 0;
+    // Generate in small parallel batches until the set is large enough.
+    while n < min_instances && scene < 10_000 {
+        let batch: Vec<BenchFrame> = (scene..scene + 8)
+            .into_par_iter()
+            .map(|s| {
+                let v = generate_view(&cfg, s, 0);
+                let instances = v
+                    .boxes
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, b)| b.visib_fract >= min_visib)
+                    .map(|(i, b)| BenchInstance {
+                        gt_index: i,
+                        mask: b.mask_visib.clone(),
+                        gt: b.pose,
+                        visib_fract: b.visib_fract,
+                        observed_dims: observed_dims(&b.pose, &b.mask_visib, &v.intrinsics).count,
+                    })
+                    .collect();
+                BenchFrame {
+                    scene_id: v.scene_id,
+                    im_id: v.im_id,
+                    layout: v.layout.to_string(),
+                    depth: v.depth,
+                    intrinsics: v.intrinsics,
+                    instances,
+                }
+            })
+            .collect();
+        scene += 8;
+        for f in batch {
+            n += f.instances.len();
+            frames.push(f);
+        }
+    }
+    BenchSet {
+        name: format!("generated (mixed, realistic noise, seed {seed}, visib >= {min_visib})"),
+        frames,
+    }
+}
+
+/// A benchmark set from a BOP dataset's ground truth (e.g. `ycbv-boxes`).
+pub fn bop_set(ds: &BopDataset, name: &str, min_visib: f64) -> Result<BenchSet, IoError> {
+    let mut frames = Vec::new();
+    for view in &ds.views {
+        let frame = view.load_frame()?;
+        let mut instances = Vec::new();
+        for g in view.gts.iter().filter(|g| g.visib_fract >= min_visib) {
+            let mask = view.load_mask_visib(g.gt_index)?;
+            let od = observed_dims(&g.pose, &mask, &frame.intrinsics).count;
+            instances.push(BenchInstance {
+                gt_index: g.gt_index,
+                mask,
+                gt: g.pose,
+                visib_fract: g.visib_fract,
+                observed_dims: od,
+            });
+        }
+        frames.push(BenchFrame {
+            scene_id: view.scene_id,
+            im_id: view.im_id,
+            layout: name.to_string(),
+            depth: frame.depth,
+            intrinsics: frame.intrinsics,
+            instances,
+        });
+    }
+    Ok(BenchSet {
+        name: name.to_string(),
+        frames,
+    })
+}
+
+/// An estimator variant.
+#[derive(Debug, Clone)]
+pub struct Variant {
+    /// Row name.
+    pub name: String,
+    /// Configuration.
+    pub config: Config,
+    /// Give the estimator the true size (the paper's "GT CAD" oracle).
+    pub oracle_size: bool,
+}
+
+/// The variants of issue #3: full pipeline, the paper's ablations, the oracle, and our modes.
+pub fn default_variants() -> Vec<Variant> {
+    let v = |name: &str, config: Config, oracle_size: bool| Variant {
+        name: name.to_string(),
+        config,
+        oracle_size,
+    };
+    vec![
+        v("full (paper: Alg. 1 + 2)", Config::paper(), false),
+        v("no depth filter", Config::paper().no_depth_filter(), false),
+        v(
+            "no early stopping (Alg. 1 only)",
+            Config::paper().binary_search_only(),
+            false,
+        ),
+        v(
+            "canonical size (no scale search)",
+            Config::paper().canonical(),
+            false,
+        ),
+        v("oracle size (GT CAD)", Config::paper(), true),
+        v("paper + hidden-dim context", Config::default(), false),
+        v("anybox (point-fit + context)", Config::anybox(), false),
+    ]
+}
+
+/// Results of one variant on one set.
+#[derive(Debug, Clone)]
+pub struct VariantResult {
+    /// Variant name.
+    pub name: String,
+    /// Figures over boxes with all three dimensions observed.
+    pub full_dims: Report,
+    /// Figures over all boxes.
+    pub all: Report,
+    /// Estimation time per box, single-threaded, ms (one entry per instance, failures included).
+    pub box_ms: Vec<f64>,
+    /// Wall time per frame with all cores, ms.
+    pub frame_ms: Vec<f64>,
+    /// Instances without an estimate.
+    pub failures: usize,
+}
+
+fn config_for(v: &Variant, gt: &OrientedBox) -> Config {
+    if v.oracle_size {
+        v.config
+            .clone()
+            .oracle([gt.size_mm.x, gt.size_mm.y, gt.size_mm.z])
+    } else {
+        v.config.clone()
+    }
+}
+
+/// Runs one variant on a set: accuracy and single-threaded per-box time from one sequential
+/// pass of `estimate_box`, frame time from `estimate_frame` on all cores.
+pub fn run_variant(set: &BenchSet, v: &Variant, min_visib: f64) -> VariantResult {
+    let mut gts = Vec::new();
+    let mut ests = Vec::new();
+    let mut box_ms = Vec::new();
+    let mut failures = 0;
+    for f in &set.frames {
+        for inst in &f.instances {
+            gts.push(GtEntry {
+                scene_id: f.scene_id,
+                im_id: f.im_id,
+                gt_index: inst.gt_index,
+                pose: inst.gt,
+                visib_fract: inst.visib_fract,
+                observed_dims: Some(inst.observed_dims),
+            });
+            let cfg = config_for(v, &inst.gt);
+            let start = Instant::now();
+            let r = estimate_box(&f.depth, &f.intrinsics, &inst.mask, &cfg);
+            box_ms.push(start.elapsed().as_secs_f64() * 1e3);
+            match r {
+                Ok(e) => ests.push(EstEntry {
+                    scene_id: f.scene_id,
+                    im_id: f.im_id,
+                    score: e.score,
+                    pose: e.pose,
+                    gt_index: Some(inst.gt_index),
+                }),
+                Err(_) => failures += 1,
+            }
+        }
+    }
+    // Frame time with all cores (the oracle variant needs one size per box, so it is timed
+    // through estimate_box in parallel instead).
+    let mut frame_ms = Vec::new();
+    for f in &set.frames {
+        if f.instances.is_empty() {
+            continue;
+        }
+        let start = Instant::now();
+        if v.oracle_size {
+            let _: Vec<_> = f
+                .instances
+                .par_iter()
+                .map(|i| estimate_box(&f.depth, &f.intrinsics, &i.mask, &config_for(v, &i.gt)))
+                .collect();
+        } else {
+            let masks: Vec<Mask> = f.instances.iter().map(|i| i.mask.clone()).collect();
+            let _ = estimate_frame(&f.depth, &f.intrinsics, &masks, &v.config);
+        }
+        frame_ms.push(start.elapsed().as_secs_f64() * 1e3);
+    }
+    let base = EvalOptions {
+        min_visib,
+        ..EvalOptions::default()
+    };
+    let all = evaluate(&gts, &ests, &base);
+    let full_dims = evaluate(
+        &gts,
+        &ests,
+        &EvalOptions {
+            min_observed_dims: 3,
+            ..base
+        },
+    );
+    VariantResult {
+        name: v.name.clone(),
+        full_dims,
+        all,
+        box_ms,
+        frame_ms,
+        failures,
+    }
+}
+
+/// The `q`-quantile (0..1) of `xs` by nearest rank; NaN for an empty slice.
+pub fn quantile(xs: &[f64], q: f64) -> f64 {
+    if xs.is_empty() {
+        return f64::NAN;
+    }
+    let mut v = xs.to_vec();
+    v.sort_by(f64::total_cmp);
+    let i = ((q * (v.len() - 1) as f64).round() as usize).min(v.len() - 1);
+    v[i]
+}
+
+fn cell(v: Option<&Option<f64>>) -> String {
+    match v.copied().flatten() {
+        Some(x) => format!("{x:.3}"),
+        None => "–".to_string(),
+    }
+}
+
+/// Markdown table of a set of variant results: one row per variant and box group.
+pub fn markdown_table(set: &BenchSet, results: &[VariantResult]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "**{}** — {} frames, {} boxes ({} with all three dimensions observed); exact 3D IoU, AP = VOC all-point, no pose gating; time per box single-threaded, frame time with all cores ({} threads).\n",
+        set.name,
+        set.frames.len(),
+        set.n_instances(),
+        set.n_full_dims(),
+        rayon::current_num_threads()
+    );
+    let _ = writeln!(
+        s,
+        "| variant | boxes | n | AP@0.5 | AP@0.7 | AP@0.8 | AP@0.9 | 5°1cm | 20°5cm | ADD-S 0.1d | size err med (mm) | ms/box med | ms/box p90 | ms/frame (all cores) |"
+    );
+    let _ = writeln!(
+        s,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for r in results {
+        for (group, rep) in [("3 dims seen", &r.full_dims), ("all", &r.all)] {
+            let f = &rep.overall;
+            let size = f
+                .size_err_mm
+                .median
+                .map(|m| format!("{m:.1}"))
+                .unwrap_or_else(|| "–".into());
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.1} |",
+                r.name,
+                group,
+                f.n_gt,
+                cell(f.iou_ap.get("0.5")),
+                cell(f.iou_ap.get("0.7")),
+                cell(f.iou_ap.get("0.8")),
+                cell(f.iou_ap.get("0.9")),
+                cell(f.pose_ap.get("5deg_1cm")),
+                cell(f.pose_ap.get("20deg_5cm")),
+                cell(f.adds_ap.get("0.1d")),
+                size,
+                quantile(&r.box_ms, 0.5),
+                quantile(&r.box_ms, 0.9),
+                quantile(&r.frame_ms, 0.5),
+            );
+        }
+    }
+    s
+}
