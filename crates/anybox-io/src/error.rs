@@ -52,7 +52,7 @@ pub enum IoError {
     },
     /// An image (or an RLE mask) has a different size from the one it must match.
     #[error(
-        "{}: wrong {what} size: expected {}x{} px, got {}x{} px",
+        "{}: {what} has the wrong size: expected {}x{} px, got {}x{} px",
         path.display(), expected.0, expected.1, got.0, got.1
     )]
     WrongSize {
