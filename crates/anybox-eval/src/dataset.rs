@@ -113,7 +113,7 @@ fn load_gts(ds: &BopDataset, with_dims: bool) -> Result<Vec<GtEntry>, EvalError>
 }
 
 fn load_estimates(ds: &BopDataset, results: &Path) -> Result<Vec<EstEntry>, EvalError> {
-    let file = local_results::read_results(results)?;
+    let file = anybox_io::results::read_results(results)?;
     let images: BTreeSet<(u32, u32)> = ds.views.iter().map(|v| (v.scene_id, v.im_id)).collect();
     let mut out = Vec::with_capacity(file.estimates.len());
     for (index, e) in file.estimates.iter().enumerate() {
@@ -147,49 +147,4 @@ fn load_estimates(ds: &BopDataset, results: &Path) -> Result<Vec<EstEntry>, Eval
         });
     }
     Ok(out)
-}
-
-/// Stand-in for `anybox_io::results` until helper IO lands it (same JSON layout).
-mod local_results {
-    use std::path::Path;
-
-    use anybox_geom::{GeomError, OrientedBox};
-    use anybox_io::IoError;
-    use serde::Deserialize;
-
-    #[derive(Deserialize)]
-    pub struct EstimateRecord {
-        pub scene_id: u32,
-        pub im_id: u32,
-        pub score: f64,
-        #[serde(rename = "R")]
-        pub r: [f64; 9],
-        pub t: [f64; 3],
-        pub size: [f64; 3],
-        #[serde(default)]
-        pub gt_index: Option<usize>,
-    }
-
-    impl EstimateRecord {
-        pub fn pose(&self) -> Result<OrientedBox, GeomError> {
-            OrientedBox::from_arrays(self.r, self.t, self.size)
-        }
-    }
-
-    #[derive(Deserialize)]
-    pub struct ResultsFile {
-        pub estimates: Vec<EstimateRecord>,
-    }
-
-    pub fn read_results(path: &Path) -> Result<ResultsFile, IoError> {
-        let text = std::fs::read_to_string(path).map_err(|source| IoError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        serde_json::from_str(&text).map_err(|e| IoError::BadValue {
-            path: path.to_path_buf(),
-            context: "results JSON".to_string(),
-            reason: e.to_string(),
-        })
-    }
 }

@@ -38,6 +38,13 @@ pub const POSE_THRESHOLDS: [(&str, f64, f64); 12] = [
 const NO_TRANS_LIMIT_CM: f64 = 100.0;
 const NO_ROT_LIMIT_DEG: f64 = 360.0;
 
+/// Numerical tolerance on the pose thresholds, so that a perfect estimate passes the 0° / 0 cm
+/// thresholds that the PACE averages include: a pose written to a results file and read back
+/// (decimal round trip, re-orthonormalisation) differs from the truth by ~1e-6°, and `acos` near
+/// 1 amplifies rounding. 1e-3° and 1e-4 cm (1 µm) are far below any meaningful error.
+const ROT_TOL_DEG: f64 = 1e-3;
+const TRANS_TOL_CM: f64 = 1e-4;
+
 /// PACE averaging: `k = 0..=20`, rotation `k`°, translation `k/4` cm (21 values each).
 pub const PACE_STEPS: usize = 21;
 
@@ -267,7 +274,7 @@ fn evaluate_image(
         .iter()
         .map(|&(deg, cm)| {
             match_first(&pose_order, ng, &pose_est_kept, &pose_gt_kept, |e, g| {
-                rot_m[e * ng + g] <= deg && cm_m[e * ng + g] <= cm
+                rot_m[e * ng + g] <= deg + ROT_TOL_DEG && cm_m[e * ng + g] <= cm + TRANS_TOL_CM
             })
         })
         .collect();

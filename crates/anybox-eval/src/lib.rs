@@ -20,8 +20,9 @@
 //!
 //! Pose matching follows NOCS `compute_match_from_degree_cm`: each estimate walks the ground
 //! truths by ascending `degrees + centimetres` and takes the first unmatched one within both
-//! thresholds (`≤`). Rotation-only AP uses a 100 cm translation bound, translation-only a 360°
-//! rotation bound, as NOCS does. With `pose_gating` (NOCS `use_matches_for_pose`), estimates and
+//! thresholds (`≤`, with a 1e-3° / 1e-3 mm rounding tolerance so that exact estimates pass the
+//! 0° and 0 cm thresholds of the PACE averages). Rotation-only AP uses a 100 cm translation
+//! bound, translation-only a 360° rotation bound, as NOCS does. With `pose_gating` (NOCS `use_matches_for_pose`), estimates and
 //! ground truths not matched at IoU 0.1 are dropped before pose matching, so pose recall is over
 //! the detected ground truths only. ADD-S matching (BOP `match_poses`): each estimate takes the
 //! unmatched ground truth with the smallest ADD-S/d, if ADD-S < f·d.
