@@ -70,6 +70,14 @@ pub enum RleError {
     /// The string ends in the middle of a number (last group has the continuation bit).
     #[error("counts string ends in the middle of a number")]
     Truncated,
+    /// The mask would be unreasonably large (more than [`MAX_RLE_PIXELS`]).
+    #[error("mask size [h, w] = [{h}, {w}] exceeds the limit of {MAX_RLE_PIXELS} pixels")]
+    TooLarge {
+        /// Height, px.
+        h: u32,
+        /// Width, px.
+        w: u32,
+    },
     /// A number with more groups than fit in 64 bits.
     #[error("number at byte {pos} of the counts string is too long")]
     Overflow {
@@ -77,6 +85,10 @@ pub enum RleError {
         pos: usize,
     },
 }
+
+/// Largest mask (h·w, px) an RLE may decode to: 2^28, far above any camera image, low enough
+/// that a corrupt `size` cannot exhaust memory.
+pub const MAX_RLE_PIXELS: u64 = 1 << 28;
 
 /// The `counts` of a COCO RLE: compressed string or explicit list.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -142,13 +154,14 @@ pub fn rle_string_to_counts(s: &str) -> Result<Vec<u64>, RleError> {
     Ok(counts)
 }
 
-/// Encodes run lengths as pycocotools' compressed counts string.
+/// Encodes run lengths as pycocotools' compressed counts string (counts must be below 2^62,
+/// as any real mask's are).
 pub fn counts_to_rle_string(counts: &[u64]) -> String {
     let mut s = String::new();
     for (i, &c) in counts.iter().enumerate() {
         let mut x = c as i64;
         if i > 2 {
-            x -= counts[i - 2] as i64;
+            x = x.wrapping_sub(counts[i - 2] as i64);
         }
         loop {
             let mut ch = x & 0x1f;
@@ -180,6 +193,9 @@ pub fn decode_coco_rle(rle: &CocoRle) -> Result<Mask, RleError> {
         return Err(RleError::Empty);
     }
     let expected = u64::from(h) * u64::from(w);
+    if expected > MAX_RLE_PIXELS {
+        return Err(RleError::TooLarge { h, w });
+    }
     let sum = counts
         .iter()
         .try_fold(0u64, |a, &c| a.checked_add(c))
@@ -199,6 +215,7 @@ pub fn decode_coco_rle(rle: &CocoRle) -> Result<Mask, RleError> {
     for (run_i, &c) in counts.iter().enumerate() {
         let c = c as usize; // sum == h·w, which is a usize-sized buffer
         if run_i % 2 == 1 {
+            // In bounds: the runs sum to exactly h·w (checked above), so j < h·w.
             for j in idx..idx + c {
                 let (col, row) = (j / hh, j % hh);
                 mask.data[row * ww + col] = true;
@@ -401,7 +418,7 @@ pub fn masks_from_label_image(
 
 /// Most distinct labels accepted from one label image: more means the file is probably not a
 /// label image (e.g. a depth PNG given by mistake), and one mask per value would exhaust memory.
-pub const MAX_LABELS: usize = 4096;
+pub const MAX_LABELS: usize = 1024;
 
 /// One mask per distinct non-zero label in a row-major label buffer of `w × h`, ordered by
 /// label value.

@@ -271,6 +271,28 @@ fn masks_of_the_wrong_size() {
 }
 
 #[test]
+fn depth_image_given_as_label_image() {
+    let t = tempfile::tempdir().unwrap();
+    let p = t.path().join("depth.png");
+    let mut d = DepthMap::zeros(64, 48);
+    for (i, v) in d.depth_mm.iter_mut().enumerate() {
+        *v = 400.0 + i as f32;
+    }
+    write_depth_png(&p, &d, 1.0).unwrap();
+    check(
+        masks_from_label_image(&p, None).unwrap_err(),
+        &p,
+        "not a label image",
+    );
+    let rgb = rgb8(t.path(), "rgb.png", 4, 4);
+    check(
+        masks_from_label_image(&rgb, None).unwrap_err(),
+        &rgb,
+        "got 8-bit RGB PNG",
+    );
+}
+
+#[test]
 fn bad_rle_json() {
     let t = tempfile::tempdir().unwrap();
     let cases: &[(&str, &str)] = &[
@@ -287,6 +309,10 @@ fn bad_rle_json() {
         (r#"{"size": [3, 2], "counts": "6 "}"#, "invalid character"),
         (r#"{"size": [3, 2], "counts": "T"}"#, "middle of a number"),
         (r#"{"size": [0, 2], "counts": [0]}"#, "must be positive"),
+        (
+            r#"{"size": [100000, 100000], "counts": [10000000000]}"#,
+            "exceeds the limit",
+        ),
     ];
     for (seg, needle) in cases {
         let body = format!(r#"[{{"score": 0.5, "segmentation": {seg}}}]"#);
