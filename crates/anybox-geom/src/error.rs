@@ -28,4 +28,7 @@ pub enum GeomError {
     /// A rotation matrix that is not orthonormal with determinant +1.
     #[error("invalid rotation matrix (not orthonormal with det +1): {0:?}")]
     BadRotation([f64; 9]),
+    /// A 3D IoU method name that is not one of `exact`, `aabb`, `nocs-legacy`.
+    #[error("unknown IoU method {0:?}: expected one of exact, aabb, nocs-legacy")]
+    UnknownIouMethod(String),
 }

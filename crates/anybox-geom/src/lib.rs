@@ -12,6 +12,7 @@
 pub mod camera;
 pub mod cuboid;
 pub mod error;
+pub mod iou;
 pub mod projection;
 
 pub use camera::Intrinsics;
