@@ -85,3 +85,98 @@ pub fn observed_dims(
         face_fractions,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use anybox_geom::nalgebra::{Rotation3, Vector3};
+
+    /// The box's own silhouette: every pixel whose ray hits it (an unoccluded visible mask).
+    fn silhouette(b: &OrientedBox, k: &Intrinsics, w: u32, h: u32) -> Mask {
+        let mut m = Mask::empty(w, h);
+        for v in 0..h {
+            for u in 0..w {
+                let hit = ray_box_intersection(&Point3::origin(), &k.ray(u as f64, v as f64), b);
+                m.set(u, v, hit.is_some_and(|(t, _, _)| t > 0.0));
+            }
+        }
+        m
+    }
+
+    fn cam() -> Intrinsics {
+        Intrinsics::new(500.0, 500.0, 160.0, 120.0).unwrap()
+    }
+
+    #[test]
+    fn straight_down_the_z_axis_shows_two_dims() {
+        // Centred on the optical axis, looking down the box's z axis: only the −z face (normal
+        // z, spanning x and y) faces the camera; the side faces point away from it.
+        let b = OrientedBox::new(
+            Rotation3::identity(),
+            Vector3::new(0.0, 0.0, 1000.0),
+            Vector3::new(200.0, 120.0, 80.0),
+        )
+        .unwrap();
+        let mask = silhouette(&b, &cam(), 320, 240);
+        assert!(mask.count() > 1000);
+        let o = observed_dims(&b, &mask, &cam());
+        assert_eq!(o.count, 2);
+        assert_eq!(o.axes, [true, true, false]);
+        assert!((o.face_fractions[4] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn oblique_view_shows_three_dims() {
+        let r = Rotation3::from_euler_angles(0.5, -0.6, 0.3);
+        let b = OrientedBox::new(
+            r,
+            Vector3::new(0.0, 0.0, 1000.0),
+            Vector3::new(200.0, 120.0, 80.0),
+        )
+        .unwrap();
+        let mask = silhouette(&b, &cam(), 320, 240);
+        let o = observed_dims(&b, &mask, &cam());
+        assert_eq!(o.count, 3, "{:?}", o.face_fractions);
+        // Exactly three faces (one per axis) are seen, and they share the whole mask.
+        let seen = o.face_fractions.iter().filter(|f| **f > 0.0).count();
+        assert_eq!(seen, 3);
+        assert!((o.face_fractions.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        for a in 0..3 {
+            assert!(o.face_fractions[2 * a] == 0.0 || o.face_fractions[2 * a + 1] == 0.0);
+        }
+    }
+
+    #[test]
+    fn a_sliver_below_five_percent_does_not_count() {
+        // Tilt the box by 5° about x: its −z face fills the mask and one y face just turns
+        // towards the camera, a sliver of ~1.5 % of the mask: still two dims. At 25° the y face
+        // is well seen.
+        let size = Vector3::new(200.0, 120.0, 80.0);
+        let at = |deg: f64| {
+            let r = Rotation3::from_axis_angle(&Vector3::x_axis(), deg.to_radians());
+            OrientedBox::new(r, Vector3::new(0.0, 0.0, 1000.0), size).unwrap()
+        };
+        let b = at(5.0);
+        let o = observed_dims(&b, &silhouette(&b, &cam(), 320, 240), &cam());
+        let y_faces = o.face_fractions[2] + o.face_fractions[3];
+        assert!(y_faces > 0.0 && y_faces < MIN_FACE_FRACTION, "{y_faces}");
+        assert_eq!(o.count, 2);
+        let b = at(25.0);
+        let o = observed_dims(&b, &silhouette(&b, &cam(), 320, 240), &cam());
+        assert_eq!(o.count, 3);
+        assert!(o.axes.iter().all(|a| *a));
+    }
+
+    #[test]
+    fn empty_mask_observes_nothing() {
+        let b = OrientedBox::new(
+            Rotation3::identity(),
+            Vector3::new(0.0, 0.0, 1000.0),
+            Vector3::new(200.0, 120.0, 80.0),
+        )
+        .unwrap();
+        let o = observed_dims(&b, &Mask::empty(320, 240), &cam());
+        assert_eq!(o.count, 0);
+        assert_eq!(o.face_fractions, [0.0; 6]);
+    }
+}
