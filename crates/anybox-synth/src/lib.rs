@@ -53,7 +53,7 @@ pub use noise::{D435_BASELINE_MM, D435_DEPTH_FOCAL_PX, D435_SUBPIXEL_PX};
 
 use crate::render::CamObject;
 use crate::rng::{hash3, purpose, stream};
-use crate::scene::{CameraKind, ObjKind, Scene};
+use crate::scene::{CameraKind, Scene};
 
 /// Scene layout (SPEC §5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -505,7 +505,6 @@ fn render_view(
             support: Some(pb.support.to_string()),
         });
     }
-    let _ = ObjKind::Structure;
     SynthView {
         scene_id: scene_idx,
         im_id: view_idx,
@@ -603,3 +602,6 @@ pub fn write_dataset(cfg: &SynthConfig, out: &Path) -> Result<Summary, SynthErro
     summary.elapsed_s = t0.elapsed().as_secs_f64();
     Ok(summary)
 }
+
+#[cfg(test)]
+mod tests;

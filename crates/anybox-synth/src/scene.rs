@@ -569,9 +569,14 @@ fn build_table(
         {
             // Stacked on top of a flat box, footprint within the lower box's top face.
             let base = b.boxes[flat[rng.random_range(0..flat.len())]].obb;
+            // Never smaller than 40 mm, never wider than the box below.
             let s = qsize(
-                s.x.min(base.half.x * 2.0 * rng.random_range(0.5..1.0)),
-                s.y.min(base.half.y * 2.0 * rng.random_range(0.5..1.0)),
+                s.x.min(base.half.x * 2.0 * rng.random_range(0.5..1.0))
+                    .max(40.0)
+                    .min(base.half.x * 2.0),
+                s.y.min(base.half.y * 2.0 * rng.random_range(0.5..1.0))
+                    .max(40.0)
+                    .min(base.half.y * 2.0),
                 s.z,
             );
             let rot = Rotation3::from_matrix_unchecked(base.rot) * rz(rng.random_range(-0.3..0.3));

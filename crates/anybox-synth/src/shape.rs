@@ -379,7 +379,7 @@ mod tests {
         );
         assert!(!a.overlaps(&b, 0.0));
         assert!(a.overlaps(&b, 0.5));
-        let rz = Rotation3::from_axis_angle(&Vector3::z_axis(), 0.785398);
+        let rz = Rotation3::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_4);
         let c = Obb::new(
             rz,
             Vector3::new(115.0, 0.0, 0.0),
