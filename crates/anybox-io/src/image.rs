@@ -1,4 +1,11 @@
-//! In-memory images: depth in millimetres, binary masks, RGB.
+//! In-memory images (depth in millimetres, binary masks, RGB) and their file readers and
+//! writers (SPEC §3: BOP / SAM-6D image conventions).
+//!
+//! In: PNG (any image) or JPEG (RGB only). Out: [`RgbImage`], [`DepthMap`] (mm, via the
+//! file's `depth_scale`), [`Mask`]. Writers produce RGB PNG, uint16 depth PNG
+//! (`value = round(depth_mm / depth_scale)`) and 8-bit 0/255 mask PNG, each atomically.
+//! A file of the wrong kind (8-bit or RGB depth, 16-bit "RGB") is rejected with an error that
+//! says what was expected and what was found.
 
 /// 8-bit RGB image (the `image` crate's type).
 pub type RgbImage = ::image::RgbImage;

@@ -305,3 +305,24 @@ fn bop19_csv_one_time_per_image() {
         assert_eq!(tt, e.t.to_vec());
     }
 }
+
+#[test]
+fn camera_json_round_trip() {
+    use anybox_io::camera::{read_camera_info, read_camera_json, write_camera_json};
+    let t = tempfile::tempdir().unwrap();
+    let p = t.path().join("camera.json");
+    let k = anybox_geom::Intrinsics::new(1066.778, 1067.487, 312.9869, 241.3109).unwrap();
+    write_camera_json(&p, &k, 0.1, Some((640, 480))).unwrap();
+    assert_eq!(read_camera_json(&p).unwrap(), (k, 0.1));
+    let info = read_camera_info(&p).unwrap();
+    assert_eq!(info.size, Some((640, 480)));
+    // SAM-6D's example layout (integers, no size), extra keys ignored.
+    std::fs::write(
+        &p,
+        r#"{"cam_K": [607, 0, 320, 0, 607, 240, 0, 0, 1], "depth_scale": 1, "view_level": 0}"#,
+    )
+    .unwrap();
+    let info = read_camera_info(&p).unwrap();
+    assert_eq!(info.intrinsics.fx, 607.0);
+    assert_eq!(info.size, None);
+}
