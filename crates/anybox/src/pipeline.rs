@@ -242,3 +242,306 @@ pub fn estimate_frame(
     }
     stages.into_iter().map(|r| r.map(|s| finish(&s))).collect()
 }
+
+/// Ray-cast test scenes: boxes and planes, exact depth and visible masks (tests only).
+#[cfg(test)]
+pub(crate) mod test_scene {
+    use anybox_geom::projection::ray_box_intersection;
+    use anybox_geom::{Intrinsics, OrientedBox};
+    use anybox_io::{DepthMap, Mask};
+    use nalgebra::{Point3, Vector3};
+
+    /// A plane `n · p = d` (camera frame, mm).
+    pub(crate) struct Plane {
+        pub n: Vector3<f64>,
+        pub d: f64,
+    }
+
+    pub(crate) fn cam() -> Intrinsics {
+        Intrinsics::new(600.0, 600.0, 320.0, 240.0).unwrap()
+    }
+
+    /// Depth and one visible mask per box.
+    pub(crate) fn render(
+        boxes: &[OrientedBox],
+        planes: &[Plane],
+        k: &Intrinsics,
+        w: u32,
+        h: u32,
+    ) -> (DepthMap, Vec<Mask>) {
+        let mut depth = DepthMap::zeros(w, h);
+        let mut masks = vec![Mask::empty(w, h); boxes.len()];
+        let o = Point3::origin();
+        for v in 0..h {
+            for u in 0..w {
+                let r = k.ray(f64::from(u), f64::from(v));
+                let mut best = f64::INFINITY;
+                let mut who: Option<usize> = None;
+                for (i, b) in boxes.iter().enumerate() {
+                    if let Some((t0, _, _)) = ray_box_intersection(&o, &r, b) {
+                        if t0 > 0.0 && t0 < best {
+                            best = t0;
+                            who = Some(i);
+                        }
+                    }
+                }
+                for p in planes {
+                    let den = p.n.dot(&r);
+                    if den.abs() > 1e-9 {
+                        let t = p.d / den;
+                        if t > 0.0 && t < best {
+                            best = t;
+                            who = None;
+                        }
+                    }
+                }
+                if best.is_finite() {
+                    depth.depth_mm[(v * w + u) as usize] = best as f32;
+                    if let Some(i) = who {
+                        masks[i].set(u, v, true);
+                    }
+                }
+            }
+        }
+        (depth, masks)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_scene::*;
+    use super::*;
+    use nalgebra::Rotation3;
+
+    /// A box resting on a horizontal table seen obliquely from above: world z up, camera looking
+    /// down at `pitch_deg` below the horizon from `dist_mm` away.
+    fn table_scene(
+        size: Vector3<f64>,
+        yaw: f64,
+        pitch_deg: f64,
+        dist_mm: f64,
+    ) -> (OrientedBox, Plane) {
+        // Camera frame: x right, y down, z forward. The table normal (world up) in camera coords:
+        let p = pitch_deg.to_radians();
+        let up = Vector3::new(0.0, -p.cos(), -p.sin());
+        // The box sits on the table at the point the optical axis hits (distance dist_mm).
+        let hit = Vector3::new(0.0, 0.0, dist_mm);
+        let table = Plane {
+            n: up,
+            d: up.dot(&hit),
+        };
+        // Box frame: z = up; x, y horizontal, yawed.
+        let fwd = (Vector3::z() - up * up.dot(&Vector3::z())).normalize();
+        let right = fwd.cross(&up).normalize();
+        let bx = right * yaw.cos() + fwd * yaw.sin();
+        let by = up.cross(&bx);
+        let rot = Rotation3::from_basis_unchecked(&[bx, by, up]);
+        let center = hit + up * (size.z / 2.0);
+        (OrientedBox::new(rot, center, size).unwrap(), table)
+    }
+
+    fn iou(a: &OrientedBox, b: &OrientedBox) -> f64 {
+        anybox_geom::iou::iou(a, b, anybox_geom::iou::IouMethod::Exact)
+    }
+
+    #[test]
+    fn oblique_box_on_table_all_modes_recover_it() {
+        let k = cam();
+        let size = Vector3::new(240.0, 160.0, 110.0);
+        let (gt, table) = table_scene(size, 0.5, 40.0, 900.0);
+        let (depth, masks) = render(&[gt], &[table], &k, 640, 480);
+        for cfg in [
+            Config::default(),
+            Config::anybox(),
+            Config::default().binary_search_only(),
+        ] {
+            let e = estimate_box(&depth, &k, &masks[0], &cfg).unwrap();
+            let i = iou(&e.pose, &gt);
+            assert!(
+                i > 0.85,
+                "{:?}: iou {i}, est {:?}",
+                cfg.scale.mode,
+                e.pose.size_mm
+            );
+            assert_eq!(e.observed_axes, [true; 3]);
+        }
+        let e = estimate_box(
+            &depth,
+            &k,
+            &masks[0],
+            &Config::default().oracle([240.0, 160.0, 110.0]),
+        )
+        .unwrap();
+        assert!(iou(&e.pose, &gt) > 0.9);
+    }
+
+    #[test]
+    fn top_view_height_from_table_plane() {
+        let k = cam();
+        let size = Vector3::new(260.0, 180.0, 120.0);
+        // Straight from above: only the top face is visible.
+        let (gt, table) = table_scene(size, 0.3, 90.0, 1100.0);
+        let (depth, masks) = render(&[gt], &[table], &k, 640, 480);
+        for cfg in [Config::anybox(), Config::default()] {
+            let e = estimate_box(&depth, &k, &masks[0], &cfg).unwrap();
+            // Which canonical axis is vertical?
+            let up = gt.axis(2);
+            let a = (0..3)
+                .max_by(|&i, &j| {
+                    e.pose
+                        .axis(i)
+                        .dot(&up)
+                        .abs()
+                        .total_cmp(&e.pose.axis(j).dot(&up).abs())
+                })
+                .unwrap();
+            assert!(!e.observed_axes[a], "{:?} {:?}", e.observed_axes, e.pose);
+            assert_eq!(e.observed_axes.iter().filter(|o| **o).count(), 2);
+            assert!(
+                (e.pose.size_mm[a] - 120.0).abs() < 5.0,
+                "{:?}: height {}",
+                cfg.scale.mode,
+                e.pose.size_mm[a]
+            );
+            assert!(iou(&e.pose, &gt) > 0.85, "{}", iou(&e.pose, &gt));
+        }
+        // Without context the height is whatever the search left.
+        let e = estimate_box(&depth, &k, &masks[0], &Config::paper()).unwrap();
+        assert!(e.observed_axes.iter().any(|o| !o));
+    }
+
+    #[test]
+    fn bad_inputs_give_errors() {
+        let k = cam();
+        let depth = DepthMap::zeros(64, 48);
+        let mut mask = Mask::empty(64, 48);
+        assert!(matches!(
+            estimate_box(&depth, &k, &mask, &Config::default()),
+            Err(EstimateError::EmptyMask)
+        ));
+        for v in 10..30 {
+            for u in 10..30 {
+                mask.set(u, v, true);
+            }
+        }
+        // No valid depth under the mask.
+        assert!(matches!(
+            estimate_box(&depth, &k, &mask, &Config::default()),
+            Err(EstimateError::TooFewPoints { .. })
+        ));
+        let small = Mask::empty(32, 48);
+        assert!(matches!(
+            estimate_box(&depth, &k, &small, &Config::default()),
+            Err(EstimateError::SizeMismatch { .. })
+        ));
+        let r = estimate_frame(&depth, &k, &[mask, small], &Config::default());
+        assert_eq!(r.len(), 2);
+        assert!(r.iter().all(|x| x.is_err()));
+    }
+}
+
+/// Synthetic benchmark of the scale modes (run in release:
+/// `cargo test -p anybox --release --lib -- --ignored --nocapture synth_scale_bench`).
+#[cfg(test)]
+mod bench {
+    use super::*;
+    use anybox_geom::iou::{iou, IouMethod};
+    use anybox_synth::{generate_view, Layout, SynthConfig};
+    use std::time::Instant;
+
+    fn pct(v: &mut [f64], p: f64) -> f64 {
+        if v.is_empty() {
+            return f64::NAN;
+        }
+        v.sort_by(f64::total_cmp);
+        v[((v.len() - 1) as f64 * p).round() as usize]
+    }
+
+    #[test]
+    #[ignore]
+    fn synth_scale_bench() {
+        let scenes: u32 = std::env::var("BENCH_SCENES")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(6);
+        let layout: Layout = std::env::var("BENCH_LAYOUT")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(Layout::Mixed);
+        let scfg = SynthConfig {
+            layout,
+            scenes,
+            views: 1,
+            ..Default::default()
+        };
+        let views: Vec<_> = (0..scenes).map(|s| generate_view(&scfg, s, 0)).collect();
+        let modes: Vec<(&str, Config)> = vec![
+            ("paper-es", Config::paper()),
+            ("paper-bs", Config::paper().binary_search_only()),
+            ("es+ctx", Config::default()),
+            ("pointfit", Config::anybox()),
+            ("canonical", Config::paper().canonical()),
+        ];
+        let only = std::env::var("BENCH_MODES").ok();
+        for (name, cfg) in modes {
+            if let Some(o) = &only {
+                if !o.split(',').any(|m| m == name) {
+                    continue;
+                }
+            }
+            let (mut ious_full, mut ious_all, mut times, mut calls) =
+                (vec![], vec![], vec![], vec![]);
+            let mut n_err = 0;
+            let mut n_flag_ok = 0;
+            for v in &views {
+                for b in &v.boxes {
+                    if b.visib_fract < 0.5 {
+                        continue;
+                    }
+                    let od = anybox_eval::observed_dims(&b.pose, &b.mask_visib, &v.intrinsics);
+                    let t0 = Instant::now();
+                    let r = estimate_box(&v.depth, &v.intrinsics, &b.mask_visib, &cfg);
+                    times.push(t0.elapsed().as_secs_f64() * 1e3);
+                    match r {
+                        Ok(e) => {
+                            let i = iou(&e.pose, &b.pose, IouMethod::Exact);
+                            ious_all.push(i);
+                            if od.count == 3 {
+                                ious_full.push(i);
+                            }
+                            let ne = e.observed_axes.iter().filter(|x| **x).count() as u8;
+                            if ne == od.count {
+                                n_flag_ok += 1;
+                            }
+                            calls.push(f64::from(e.pose_calls));
+                        }
+                        Err(_) => {
+                            n_err += 1;
+                            ious_all.push(0.0);
+                        }
+                    }
+                }
+            }
+            let frac = |v: &[f64], t: f64| {
+                v.iter().filter(|x| **x > t).count() as f64 / v.len().max(1) as f64
+            };
+            println!(
+                "{name:10} n={} full={} | full>.5 {:.3} >.7 {:.3} >.9 {:.3} med {:.3} | all>.5 {:.3} >.7 {:.3} med {:.3} | flags ok {} err {} | ms med {:.1} p90 {:.1} calls {:.1}",
+                ious_all.len(),
+                ious_full.len(),
+                frac(&ious_full, 0.5),
+                frac(&ious_full, 0.7),
+                frac(&ious_full, 0.9),
+                pct(&mut ious_full.clone(), 0.5),
+                frac(&ious_all, 0.5),
+                frac(&ious_all, 0.7),
+                pct(&mut ious_all.clone(), 0.5),
+                n_flag_ok,
+                n_err,
+                pct(&mut times, 0.5),
+                pct(&mut times, 0.9),
+                pct(&mut calls, 0.5),
+            );
+        }
+    }
+}

@@ -25,8 +25,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::context::{face_point_counts, observed_axes_from_counts, ContextConfig};
 use crate::silhouette::{
-    axis_directions, extents_of_local_points, mask_span, rendered_extents, trim_count,
-    AxisDirections, Extents,
+    axis_directions, extents_of_local_points, mask_span, project_local_points, raster_extents,
+    rendered_extents, rendered_raster_extents, trim_count, AxisDirections, Extents,
 };
 
 /// How the box size is found.
@@ -79,6 +79,14 @@ pub struct ScaleConfig {
     pub extent_trim_fraction: f64,
     /// Just outside the mask, depth this much closer than the box edge marks an occluder, mm.
     pub occluder_margin_mm: f64,
+    /// Algorithms 1 and 2 decide on *decoupled* extent errors: the silhouette extent along one
+    /// axis' image direction also grows with the other two dimensions, so the raw per-axis error
+    /// can point the wrong way and lock a binary-search bound on the wrong side of the truth.
+    /// With this on (default), the per-axis errors are first mapped to size corrections through
+    /// the 3×3 Jacobian of the extents w.r.t. the dimensions (visible faces held fixed), and the
+    /// decisions (Alg. 1) and the one-step update (Alg. 2, `s ← s + J⁻¹(e_obs − e_cad)`) use those.
+    /// Off = the paper's raw comparison and ratio update `s ← s ⊙ (e_obs ⊘ e_cad)`.
+    pub decoupled: bool,
     /// PointFit: alternations of point-extent size fit and pose estimate.
     pub pointfit_iters: u32,
     /// PointFit: percentile (each end, %) of point coordinates taken as the face edges.
@@ -105,6 +113,7 @@ impl Default for ScaleConfig {
             stable_steps: 2,
             extent_trim_fraction: 0.0005,
             occluder_margin_mm: 20.0,
+            decoupled: true,
             pointfit_iters: 3,
             pointfit_percentile: 0.5,
             pointfit_edge_px: 1.0,
@@ -301,7 +310,10 @@ fn compare(
     let Some(dirs) = axis_directions(pose, inputs.intrinsics) else {
         return out;
     };
-    let Some(cad) = rendered_extents(pose, inputs.intrinsics, &dirs) else {
+    let trim = trim_count(inputs.mask_pixels.len(), cfg.extent_trim_fraction);
+    let (w, h) = (inputs.depth.width, inputs.depth.height);
+    let Some(cad) = rendered_raster_extents(pose, inputs.intrinsics, &dirs, w, h, trim, scratch)
+    else {
         return out;
     };
     let obs = observed_extents_checked(inputs, &dirs, cfg, scratch);
@@ -309,6 +321,130 @@ fn compare(
         if let (Some(c), Some(o)) = (cad.px[a], obs.extents.px[a]) {
             out[a] = Some((c, o, obs.lower_bound_only[a]));
         }
+    }
+    out
+}
+
+/// Jacobian of the corner extents along `dirs` w.r.t. the three dimensions, px/mm, with the
+/// camera-facing faces held in place (so the box grows away from the camera, as the pose
+/// estimator places it). `faces`: restrict the silhouette to the camera-facing faces with these
+/// normal axes (`None` = the whole box). Column `b` = d e / d s_b.
+pub fn extent_jacobian(
+    pose: &OrientedBox,
+    k: &Intrinsics,
+    dirs: &AxisDirections,
+    faces: Option<[bool; 3]>,
+) -> Option<Matrix3<f64>> {
+    let corners = |p: &OrientedBox| -> Vec<Vector3<f64>> {
+        match faces {
+            Some(f) => observed_face_corners(p, f),
+            None => {
+                let h = p.half_size_mm();
+                anybox_geom::cuboid::CORNER_SIGNS
+                    .iter()
+                    .map(|c| Vector3::new(c[0] * h.x, c[1] * h.y, c[2] * h.z))
+                    .collect()
+            }
+        }
+    };
+    let base = extents_of_local_points(pose, k, &corners(pose), dirs)?;
+    let mut jac = Matrix3::zeros();
+    for b in 0..3 {
+        let step = (0.01 * pose.size_mm[b]).max(0.5);
+        let mut p2 = *pose;
+        p2.size_mm[b] += step;
+        let n = pose.axis(b);
+        let away = if n.dot(&pose.center_mm) > 0.0 {
+            1.0
+        } else {
+            -1.0
+        };
+        p2.center_mm += n * (0.5 * step * away);
+        let e2 = extents_of_local_points(&p2, k, &corners(&p2), dirs)?;
+        for a in 0..3 {
+            if let (Some(x2), Some(x)) = (e2.px[a], base.px[a]) {
+                jac[(a, b)] = (x2 - x) / step;
+            }
+        }
+    }
+    Some(jac)
+}
+
+/// Size corrections (mm) that would close the extent errors `cmp` at the current rotation (see
+/// [`ScaleConfig::decoupled`]); `None` for axes without a usable comparison.
+///
+/// Solved by a few Newton steps on the analytic corner extents with the camera-facing faces held
+/// in place (no pose estimate inside), targeting the observed extents corrected by the
+/// rasterisation offset measured at the start, so perspective non-linearity is absorbed.
+fn decoupled_step(
+    pose: &OrientedBox,
+    k: &Intrinsics,
+    cmp: &[Option<(f64, f64, bool)>; 3],
+) -> [Option<f64>; 3] {
+    let mut out = [None; 3];
+    let Some(dirs) = axis_directions(pose, k) else {
+        return out;
+    };
+    let Some(e0) = rendered_extents(pose, k, &dirs) else {
+        return out;
+    };
+    let usable: Vec<usize> = (0..3)
+        .filter(|&a| cmp[a].is_some() && e0.px[a].is_some())
+        .collect();
+    let n = usable.len();
+    if n == 0 {
+        return out;
+    }
+    // Analytic target per usable axis.
+    let mut target = [0.0; 3];
+    for &a in &usable {
+        if let (Some((c, o, l)), Some(an)) = (cmp[a], e0.px[a]) {
+            target[a] = an + signed_error(c, o, l);
+        }
+    }
+    let mut p = *pose;
+    for _ in 0..6 {
+        let Some(e) = rendered_extents(&p, k, &dirs) else {
+            return out;
+        };
+        let Some(jac) = extent_jacobian(&p, k, &dirs, None) else {
+            return out;
+        };
+        let mut sub = nalgebra::DMatrix::<f64>::zeros(n, n);
+        let mut rhs = nalgebra::DVector::<f64>::zeros(n);
+        for (i, &a) in usable.iter().enumerate() {
+            for (j, &b) in usable.iter().enumerate() {
+                sub[(i, j)] = jac[(a, b)];
+            }
+            rhs[i] = target[a] - e.px[a].unwrap_or(target[a]);
+        }
+        let Some(sol) = sub.lu().solve(&rhs) else {
+            return out;
+        };
+        let mut biggest = 0.0f64;
+        for (i, &b) in usable.iter().enumerate() {
+            let lim = 0.5 * p.size_mm[b];
+            let d = if sol[i].is_finite() {
+                sol[i].clamp(-lim, lim)
+            } else {
+                0.0
+            };
+            let n_ax = p.axis(b);
+            let away = if n_ax.dot(&p.center_mm) > 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
+            p.size_mm[b] = (p.size_mm[b] + d).max(1.0);
+            p.center_mm += n_ax * (0.5 * d * away);
+            biggest = biggest.max(d.abs());
+        }
+        if biggest < 0.05 {
+            break;
+        }
+    }
+    for &a in &usable {
+        out[a] = Some(p.size_mm[a] - pose.size_mm[a]);
     }
     out
 }
@@ -402,6 +538,14 @@ fn binary_search<P: PoseEstimator>(
             }
         }
         let cmp = compare(&pose, inputs, cfg, &mut scratch);
+        if std::env::var("ANYBOX_DEBUG").is_ok() {
+            eprintln!(
+                "it {iterations} s {:?} cmp {:?} step {:?}",
+                s.as_slice(),
+                cmp,
+                decoupled_step(&pose, inputs.intrinsics, &cmp)
+            );
+        }
         let err = cmp
             .iter()
             .flatten()
@@ -415,11 +559,20 @@ fn binary_search<P: PoseEstimator>(
         }
         if early && stable >= cfg.stable_steps.max(1) {
             // Algorithm 2: proportional update, one last pose estimate, stop.
-            for a in 0..3 {
-                if let Some((c, o, l)) = cmp[a] {
-                    if c > 1e-9 {
-                        let r = if l { (o / c).max(1.0) } else { o / c };
-                        s[a] *= r;
+            if cfg.decoupled {
+                let step = decoupled_step(&pose, inputs.intrinsics, &cmp);
+                for a in 0..3 {
+                    if let Some(d) = step[a] {
+                        s[a] += d;
+                    }
+                }
+            } else {
+                for a in 0..3 {
+                    if let Some((c, o, l)) = cmp[a] {
+                        if c > 1e-9 {
+                            let r = if l { (o / c).max(1.0) } else { o / c };
+                            s[a] *= r;
+                        }
                     }
                 }
             }
@@ -430,9 +583,18 @@ fn binary_search<P: PoseEstimator>(
             stopped_early = true;
             break;
         }
+        let step = if cfg.decoupled {
+            decoupled_step(&pose, inputs.intrinsics, &cmp)
+        } else {
+            [None; 3]
+        };
         for a in 0..3 {
             if let Some((c, o, l)) = cmp[a] {
-                let m = signed_error(c, o, l);
+                let m = if cfg.decoupled {
+                    step[a].unwrap_or(0.0)
+                } else {
+                    signed_error(c, o, l)
+                };
                 if m > 0.0 {
                     lo[a] = s[a];
                 } else if m < 0.0 {
@@ -592,6 +754,17 @@ fn point_fit<P: PoseEstimator>(
             }
         }
         new = clamp_size(&new, cfg);
+        if std::env::var("ANYBOX_DEBUG").is_ok() {
+            eprintln!(
+                "pf it {iterations} size {:?} counts {:?} obs {:?} ext {:?} new {:?} R {:?}",
+                size.as_slice(),
+                counts,
+                observed,
+                ext,
+                new.as_slice(),
+                pose.rotation.matrix().as_slice()
+            );
+        }
         let change = (new - size).abs().max();
         size = new;
         sample = est.estimate(&size, Some(&pose))?;
@@ -614,6 +787,19 @@ fn point_fit<P: PoseEstimator>(
         let Some(cad) = extents_of_local_points(&pose, inputs.intrinsics, &corners, &dirs) else {
             break;
         };
+        // Residuals on the rasterised observed-face hull (same pixelisation as the mask).
+        let Some(corner_px) = project_local_points(&pose, inputs.intrinsics, &corners) else {
+            break;
+        };
+        let trim = trim_count(inputs.mask_pixels.len(), cfg.extent_trim_fraction);
+        let cad_raster = raster_extents(
+            &corner_px,
+            &dirs,
+            inputs.depth.width,
+            inputs.depth.height,
+            trim,
+            &mut scratch,
+        );
         // Axes that the polish may move: observed, with a usable, unblocked extent.
         let usable: Vec<usize> = (0..3)
             .filter(|&a| {
@@ -657,7 +843,7 @@ fn point_fit<P: PoseEstimator>(
         let k = usable.len();
         let mut resid = Vector3::zeros();
         for (i, &a) in usable.iter().enumerate() {
-            if let (Some(o), Some(c)) = (obs.extents.px[a], cad.px[a]) {
+            if let (Some(o), Some(c)) = (obs.extents.px[a], cad_raster.px[a]) {
                 resid[i] = o - c;
             }
         }
@@ -693,4 +879,181 @@ fn point_fit<P: PoseEstimator>(
         converged,
         observed_axes: observed,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::test_scene::{cam, render, Plane};
+    use crate::silhouette::mask_pixels;
+
+    /// The test double of PoseEstimate(C(s)): the true rotation, the centre placed so that the
+    /// camera-facing faces stay where the true box's are.
+    fn oracle_pose(
+        gt: OrientedBox,
+    ) -> impl FnMut(&Vector3<f64>, Option<&OrientedBox>) -> Result<PoseSample, ()> {
+        move |s: &Vector3<f64>, _prior: Option<&OrientedBox>| {
+            let mut c = gt.center_mm;
+            for a in 0..3 {
+                let r = gt.axis(a);
+                let v = if r.dot(&gt.center_mm) > 0.0 {
+                    -1.0
+                } else {
+                    1.0
+                };
+                c += r * (v * (gt.size_mm[a] - s[a]) / 2.0);
+            }
+            Ok(PoseSample {
+                pose: OrientedBox::new(gt.rotation, c, *s).map_err(|_| ())?,
+                score: 1.0,
+                depth_penalty: 0.0,
+            })
+        }
+    }
+
+    fn scene() -> (OrientedBox, anybox_io::DepthMap, anybox_io::Mask) {
+        let k = cam();
+        let gt = OrientedBox::new(
+            Rotation3::from_euler_angles(0.5, -0.6, 0.4),
+            Vector3::new(30.0, -20.0, 950.0),
+            Vector3::new(260.0, 170.0, 120.0),
+        )
+        .unwrap();
+        let floor = Plane {
+            n: Vector3::z(),
+            d: 3000.0,
+        };
+        let (depth, masks) = render(&[gt], &[floor], &k, 640, 480);
+        (gt, depth, masks.into_iter().next().unwrap())
+    }
+
+    fn run(mode: ScaleMode, template: [f64; 3]) -> (OrientedBox, ScaleOutcome) {
+        let (gt, depth, mask) = scene();
+        let k = cam();
+        let px = mask_pixels(&mask);
+        let inputs = ScaleInputs {
+            intrinsics: &k,
+            depth: &depth,
+            mask_pixels: &px,
+            points_mm: &[],
+            normals: &[],
+        };
+        let cfg = ScaleConfig {
+            mode,
+            template_mm: template,
+            tau_px: 1.0,
+            max_iters: 20,
+            ..Default::default()
+        };
+        let mut est = oracle_pose(gt);
+        let out = scale_search(&mut est, &inputs, &cfg, &ContextConfig::default(), None).unwrap();
+        (gt, out)
+    }
+
+    #[test]
+    fn binary_search_converges_from_too_large_and_too_small_templates() {
+        for f in [2.0, 0.5] {
+            let t = [260.0 * f, 170.0 * f, 120.0 * f];
+            let (gt, out) = run(ScaleMode::BinarySearch, t);
+            let err = (out.pose.size_mm - gt.size_mm).abs().max();
+            assert!(out.converged, "factor {f}: {out:?}");
+            // 1 px at ~1 m and f = 600 is ~1.6 mm; the extents couple the axes, allow a few px.
+            assert!(
+                err < 8.0,
+                "factor {f}: size {:?}, err {err}",
+                out.pose.size_mm
+            );
+            assert!(!out.stopped_early);
+        }
+    }
+
+    #[test]
+    fn early_stopping_matches_binary_search_with_fewer_pose_calls() {
+        for f in [2.0, 0.5] {
+            let t = [260.0 * f, 170.0 * f, 120.0 * f];
+            let (gt, bs) = run(ScaleMode::BinarySearch, t);
+            let (_, es) = run(ScaleMode::EarlyStopping, t);
+            assert!(es.stopped_early, "{es:?}");
+            assert!(
+                es.pose_calls < bs.pose_calls,
+                "{} vs {}",
+                es.pose_calls,
+                bs.pose_calls
+            );
+            let d = (es.pose.size_mm - bs.pose.size_mm).abs().max();
+            let rel = (es.pose.size_mm - gt.size_mm)
+                .abs()
+                .component_div(&gt.size_mm)
+                .max();
+            assert!(
+                d < 15.0 && rel < 0.06,
+                "factor {f}: es {:?} bs {:?}",
+                es.pose.size_mm,
+                bs.pose.size_mm
+            );
+        }
+    }
+
+    #[test]
+    fn canonical_and_oracle_do_not_search() {
+        let (gt, out) = run(ScaleMode::Canonical, [300.0, 200.0, 150.0]);
+        assert_eq!(out.pose_calls, 1);
+        assert_eq!(out.pose.size_mm, Vector3::new(300.0, 200.0, 150.0));
+        let (_, o) = run(
+            ScaleMode::Oracle([260.0, 170.0, 120.0]),
+            [300.0, 200.0, 150.0],
+        );
+        assert_eq!(o.pose.size_mm, gt.size_mm);
+    }
+
+    #[test]
+    fn occluded_side_only_bounds_from_below() {
+        let (gt, depth, mask) = scene();
+        let k = cam();
+        // An occluder in front covering the right part of the box.
+        let occ = OrientedBox::new(
+            Rotation3::identity(),
+            Vector3::new(120.0, -20.0, 600.0),
+            Vector3::new(80.0, 400.0, 50.0),
+        )
+        .unwrap();
+        let floor = Plane {
+            n: Vector3::z(),
+            d: 3000.0,
+        };
+        let (d2, m2) = render(&[gt, occ], &[floor], &k, 640, 480);
+        assert!(m2[0].count() < mask.count());
+        let px = mask_pixels(&m2[0]);
+        let inputs = ScaleInputs {
+            intrinsics: &k,
+            depth: &d2,
+            mask_pixels: &px,
+            points_mm: &[],
+            normals: &[],
+        };
+        let dirs = axis_directions(&gt, &k).unwrap();
+        let mut s = Vec::new();
+        let o = observed_extents_checked(&inputs, &dirs, &ScaleConfig::default(), &mut s);
+        assert!(o.lower_bound_only.iter().any(|b| *b));
+        // The unoccluded view has no blocked side.
+        let px = mask_pixels(&mask);
+        let inputs = ScaleInputs {
+            intrinsics: &k,
+            depth: &depth,
+            mask_pixels: &px,
+            points_mm: &[],
+            normals: &[],
+        };
+        let o = observed_extents_checked(&inputs, &dirs, &ScaleConfig::default(), &mut s);
+        assert_eq!(o.lower_bound_only, [false; 3]);
+    }
+
+    #[test]
+    fn rotation_change_ignores_box_symmetries() {
+        let r = Rotation3::from_euler_angles(0.2, 0.3, -0.1);
+        let flip = Rotation3::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
+        assert!(rotation_change_deg(&r, &(r * flip)) < 1e-6);
+        let small = Rotation3::from_axis_angle(&Vector3::y_axis(), 3f64.to_radians());
+        assert!((rotation_change_deg(&r, &(r * small)) - 3.0).abs() < 1e-6);
+    }
 }

@@ -254,11 +254,12 @@ pub fn silhouette_hull_px(pose: &OrientedBox, k: &Intrinsics) -> Option<Vec<Poin
     project_corners_px(pose, k).map(|c| convex_hull(&c))
 }
 
-/// Rasterises a convex polygon: pixel `(u, v)` is set when its centre `(u, v)` lies inside.
-pub fn rasterize_convex(poly: &[Point2<f64>], width: u32, height: u32) -> Mask {
-    let mut mask = Mask::empty(width, height);
+/// Row spans `(v, u_first, u_last)` of the pixels whose centre lies inside a convex polygon,
+/// clipped to a `width × height` image.
+pub fn convex_spans(poly: &[Point2<f64>], width: u32, height: u32) -> Vec<(u32, u32, u32)> {
+    let mut out = Vec::new();
     if poly.len() < 3 || width == 0 || height == 0 {
-        return mask;
+        return out;
     }
     let (ymin, ymax) = poly
         .iter()
@@ -268,7 +269,7 @@ pub fn rasterize_convex(poly: &[Point2<f64>], width: u32, height: u32) -> Mask {
     let v0 = ymin.ceil().max(0.0);
     let v1 = ymax.floor().min(f64::from(height) - 1.0);
     if !(v0 <= v1) {
-        return mask;
+        return out;
     }
     let n = poly.len();
     let mut v = v0;
@@ -282,27 +283,99 @@ pub fn rasterize_convex(poly: &[Point2<f64>], width: u32, height: u32) -> Mask {
             if v < lo.y || v > hi.y {
                 continue;
             }
-            let x = if (hi.y - lo.y).abs() < 1e-12 {
+            if (hi.y - lo.y).abs() < 1e-12 {
                 xl = xl.min(lo.x.min(hi.x));
                 xr = xr.max(lo.x.max(hi.x));
-                continue;
             } else {
-                lo.x + (v - lo.y) * (hi.x - lo.x) / (hi.y - lo.y)
-            };
-            xl = xl.min(x);
-            xr = xr.max(x);
+                let x = lo.x + (v - lo.y) * (hi.x - lo.x) / (hi.y - lo.y);
+                xl = xl.min(x);
+                xr = xr.max(x);
+            }
         }
         let u0 = xl.ceil().max(0.0);
         let u1 = xr.floor().min(f64::from(width) - 1.0);
         if u0 <= u1 {
-            let row = v as usize * width as usize;
-            for u in (u0 as usize)..=(u1 as usize) {
-                mask.data[row + u] = true;
-            }
+            out.push((v as u32, u0 as u32, u1 as u32));
         }
         v += 1.0;
     }
+    out
+}
+
+/// Rasterises a convex polygon: pixel `(u, v)` is set when its centre `(u, v)` lies inside.
+pub fn rasterize_convex(poly: &[Point2<f64>], width: u32, height: u32) -> Mask {
+    let mut mask = Mask::empty(width, height);
+    for (v, u0, u1) in convex_spans(poly, width, height) {
+        let row = v as usize * width as usize;
+        for u in u0..=u1 {
+            mask.data[row + u as usize] = true;
+        }
+    }
     mask
+}
+
+/// Extents of the rasterised convex hull of `px` along `dirs`, measured exactly like
+/// [`observed_extents`] (pixel centres, `trim` pixels dropped at each end, one pixel added), so
+/// that the rendered and observed extents carry the same pixelisation bias.
+pub fn raster_extents(
+    px: &[Point2<f64>],
+    dirs: &AxisDirections,
+    width: u32,
+    height: u32,
+    trim: usize,
+    scratch: &mut Vec<f64>,
+) -> Extents {
+    let hull = convex_hull(px);
+    let spans = convex_spans(&hull, width, height);
+    let mut out = Extents { px: [None; 3] };
+    for a in 0..3 {
+        let Some(d) = dirs.dirs[a] else { continue };
+        if trim == 0 {
+            // Extremes of a row lie at its ends.
+            let mut lo = f64::INFINITY;
+            let mut hi = f64::NEG_INFINITY;
+            for &(v, u0, u1) in &spans {
+                for u in [u0, u1] {
+                    let s = f64::from(u) * d.x + f64::from(v) * d.y;
+                    lo = lo.min(s);
+                    hi = hi.max(s);
+                }
+            }
+            if lo.is_finite() {
+                out.px[a] = Some(hi - lo + 1.0);
+            }
+        } else {
+            scratch.clear();
+            for &(v, u0, u1) in &spans {
+                for u in u0..=u1 {
+                    scratch.push(f64::from(u) * d.x + f64::from(v) * d.y);
+                }
+            }
+            let n = scratch.len();
+            if n == 0 {
+                continue;
+            }
+            let t = trim.min((n - 1) / 2);
+            let lo = *scratch.select_nth_unstable_by(t, f64::total_cmp).1;
+            let hi = *scratch.select_nth_unstable_by(n - 1 - t, f64::total_cmp).1;
+            out.px[a] = Some(hi - lo + 1.0);
+        }
+    }
+    out
+}
+
+/// Rasterised extents of the whole cuboid silhouette (the paper's Extents(RenderMask(C(s), T, K))).
+pub fn rendered_raster_extents(
+    pose: &OrientedBox,
+    k: &Intrinsics,
+    dirs: &AxisDirections,
+    width: u32,
+    height: u32,
+    trim: usize,
+    scratch: &mut Vec<f64>,
+) -> Option<Extents> {
+    let px = project_corners_px(pose, k)?;
+    Some(raster_extents(&px, dirs, width, height, trim, scratch))
 }
 
 /// Renders the cuboid silhouette mask (the paper's RenderMask(C(s), T, K)).
@@ -327,6 +400,18 @@ pub fn extents_of_local_points(
         px.push(k.project(&p)?);
     }
     Some(extents_of_points(&px, dirs))
+}
+
+/// Projects box-frame points to pixels; `None` if one is behind the camera.
+pub fn project_local_points(
+    pose: &OrientedBox,
+    k: &Intrinsics,
+    local_mm: &[Vector3<f64>],
+) -> Option<Vec<Point2<f64>>> {
+    local_mm
+        .iter()
+        .map(|l| k.project(&pose.to_camera(l)))
+        .collect()
 }
 
 #[cfg(test)]
