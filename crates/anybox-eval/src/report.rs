@@ -57,7 +57,8 @@ pub struct Figures {
     pub n_gt: usize,
     /// Estimates in scope.
     pub n_est: usize,
-    /// Ground truths in scope's images that were ignored.
+    /// Ground truths in the scope's images that were not counted: ignored (visibility,
+    /// observed dims) or, for a visibility band, outside the band. Shown as "excluded".
     pub n_ignored: usize,
     /// Ground truths the pose and ADD-S APs count (= `n_gt` unless pose gating dropped some).
     pub n_pose_gt: usize,
@@ -141,7 +142,7 @@ impl Report {
         let _ = writeln!(
             s,
             "{:w$}  {:>6} {:>6} {:>8} {:>8}",
-            "", "n_gt", "n_est", "ignored", "pose_gt"
+            "", "n_gt", "n_est", "excluded", "pose_gt"
         );
         for (name, f) in &scopes {
             let _ = writeln!(
