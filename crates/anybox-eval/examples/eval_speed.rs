@@ -46,8 +46,7 @@ fn main() {
             });
             let mut e = pose;
             e.center_mm += Vector3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 40.0;
-            e.rotation =
-                e.rotation * Rotation3::from_euler_angles(0.1 * rnd(), 0.1 * rnd(), 0.1 * rnd());
+            e.rotation *= Rotation3::from_euler_angles(0.1 * rnd(), 0.1 * rnd(), 0.1 * rnd());
             e.size_mm += Vector3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 30.0;
             ests.push(EstEntry {
                 scene_id: im / 10,
