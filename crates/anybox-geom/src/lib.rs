@@ -14,6 +14,7 @@ pub mod cuboid;
 pub mod error;
 pub mod iou;
 pub mod projection;
+pub mod symmetry;
 
 pub use camera::Intrinsics;
 pub use cuboid::OrientedBox;
