@@ -88,6 +88,42 @@ fn main() {
         }
     }
     let dt = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let _ = anybox_synth::models(&SynthConfig { scenes: 200, ..cfg });
+    println!(
+        "model registry over 200 scenes: {:.1} ms",
+        t1.elapsed().as_secs_f64() * 1e3
+    );
+    for layout in [Layout::Pallet, Layout::Table, Layout::Shelf] {
+        let c = SynthConfig {
+            layout,
+            scenes: 12,
+            views: 2,
+            ..SynthConfig::default()
+        };
+        let views = anybox_synth::generate_views(&c);
+        let all: Vec<&anybox_synth::SynthBox> = views.iter().flat_map(|v| v.boxes.iter()).collect();
+        let big = all
+            .iter()
+            .filter(|b| b.bbox_obj[2] >= 40 && b.bbox_obj[3] >= 40)
+            .count();
+        let vis10 = all.iter().filter(|b| b.visib_fract >= 0.1).count();
+        let vis50 = all.iter().filter(|b| b.visib_fract >= 0.5).count();
+        let valid: f64 = views
+            .iter()
+            .map(|v| v.depth.valid_count() as f64 / (v.depth.width * v.depth.height) as f64)
+            .sum::<f64>()
+            / views.len() as f64;
+        println!(
+            "{layout}: {:.1} boxes/view, {:.0}% >= 40x40 px, {:.0}% visib>=0.1, {:.0}% visib>=0.5, valid depth {:.0}%, min boxes/view {}",
+            all.len() as f64 / views.len() as f64,
+            100.0 * big as f64 / all.len() as f64,
+            100.0 * vis10 as f64 / all.len() as f64,
+            100.0 * vis50 as f64 / all.len() as f64,
+            100.0 * valid,
+            views.iter().map(|v| v.boxes.len()).min().unwrap_or(0)
+        );
+    }
     println!(
         "{count} views (mixed, sequential calls): {:.2} s total, {:.1} ms/view, {boxes} boxes",
         dt,

@@ -443,7 +443,7 @@ fn render_view(
     if cfg.noise == NoiseModel::Realistic {
         let rgb_key = hash3(view_key, 0, purpose::RGB);
         for (i, px) in rgb_bytes.iter_mut().enumerate() {
-            let n = 2.0 * rng::gauss(hash3(rgb_key, i as u64, 0));
+            let n = 2.0 * rng::gauss_fast(hash3(rgb_key, i as u64, 0));
             *px = (*px as f64 + n).round().clamp(0.0, 255.0) as u8;
         }
     }
@@ -468,15 +468,21 @@ fn render_view(
         }
     }
     let r_wc_rot = Rotation3::from_matrix_unchecked(r_wc);
+    // All visible masks in one pass over the instance image.
+    let mut masks: Vec<Option<Mask>> = visib
+        .iter()
+        .map(|&n| (n > 0).then(|| Mask::empty(w, h)))
+        .collect();
+    for (p, &i) in out.inst.iter().enumerate() {
+        if let Some(Some(m)) = masks.get_mut(i as usize) {
+            m.data[p] = true;
+        }
+    }
     let mut boxes = Vec::new();
     for (g, pb) in sc.boxes.iter().enumerate() {
-        if visib[g] == 0 {
+        let Some(mask) = masks[g].take() else {
             continue;
-        }
-        let mut mask = Mask::empty(w, h);
-        for (m, &i) in mask.data.iter_mut().zip(&out.inst) {
-            *m = i as usize == g;
-        }
+        };
         let size = pb.obb.half * 2.0;
         let rot = r_wc_rot * Rotation3::from_matrix_unchecked(pb.obb.rot);
         let pose = OrientedBox {

@@ -24,6 +24,12 @@
 //!      `σ_z(z, θ) = 1.2 mm + 1.9 mm · (z_m − 0.4)²` for θ ≤ 60°, plus
 //!      `0.1 mm / √z_m · θ² / (π/2 − θ)²` above 60° (z_m = depth in metres, θ = incidence angle).
 //!      σ(1 m) ≈ 1.9 mm, σ(2 m) ≈ 6.1 mm.
+//!    The noise is split between a per-pixel white part and a spatially correlated part (a
+//!    bilinearly interpolated Gaussian field on a grid of `cell` px, renormalised to unit
+//!    variance), because stereo and structured-light sensors match windows of several pixels and
+//!    so produce smooth bumps rather than independent per-pixel errors. Share of the variance in
+//!    the correlated part: 60 % on an 8 px grid (RealSense-like), 40 % on a 6 px grid
+//!    (Kinect-like) — our choice; the total σ is the cited model's.
 //! 6. **Quantisation** to 1 mm (the PNG's `depth_scale` 1.0) and the **working range**
 //!    (RealSense-like 200–10 000 mm; Kinect-like 500–3860 mm, Azure Kinect NFOV unbinned).
 //!
@@ -61,6 +67,37 @@ pub(crate) fn axial_sigma_mm(camera: CameraKind, z_mm: f64, theta_rad: f64) -> f
             s
         }
     }
+}
+
+/// `(share of variance, grid cell px)` of the spatially correlated part of the axial noise.
+pub(crate) fn correlated_part(camera: CameraKind) -> (f64, f64) {
+    match camera {
+        CameraKind::RealSenseD435 => (0.6, 8.0),
+        CameraKind::KinectLike => (0.4, 6.0),
+    }
+}
+
+/// Unit-variance smooth Gaussian field at pixel `(u, v)`: bilinear interpolation of independent
+/// normals on a `cell`-px grid, divided by the root of the summed squared weights.
+fn smooth_field(key: u64, u: f64, v: f64, cell: f64) -> f64 {
+    let (gx, gy) = (u / cell, v / cell);
+    let (x0, y0) = (gx.floor(), gy.floor());
+    let (fx, fy) = (gx - x0, gy - y0);
+    let g = |dx: f64, dy: f64| {
+        gauss(hash3(
+            key,
+            ((x0 + dx) as i64) as u64,
+            ((y0 + dy) as i64) as u64 ^ 0xF1E1D,
+        ))
+    };
+    let w = [
+        (1.0 - fx) * (1.0 - fy),
+        fx * (1.0 - fy),
+        (1.0 - fx) * fy,
+        fx * fy,
+    ];
+    let val = w[0] * g(0.0, 0.0) + w[1] * g(1.0, 0.0) + w[2] * g(0.0, 1.0) + w[3] * g(1.0, 1.0);
+    val / w.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
 /// The sensor's working range `(min, max)`, mm.
@@ -177,14 +214,18 @@ pub(crate) fn apply_realistic(
     }
     // 5, 6. Axial noise, quantisation, range.
     let (zmin, zmax) = range_mm(camera);
+    let (rho, cell) = correlated_part(camera);
+    let (a_white, a_field) = ((1.0 - rho).sqrt(), rho.sqrt());
+    let field_key = hash3(key, 0, 32);
     (0..w * h)
         .map(|i| {
             if !keep[i] || draw(i, 30) < 0.002 {
                 return 0.0;
             }
             let theta = (r.cos_inc[i] as f64).clamp(0.0, 1.0).acos();
-            let zn =
-                out[i] + axial_sigma_mm(camera, out[i], theta) * gauss(hash3(key, i as u64, 31));
+            let n = a_white * gauss(hash3(key, i as u64, 31))
+                + a_field * smooth_field(field_key, (i % w) as f64, (i / w) as f64, cell);
+            let zn = out[i] + axial_sigma_mm(camera, out[i], theta) * n;
             let q = zn.round();
             if q < zmin || q > zmax {
                 0.0

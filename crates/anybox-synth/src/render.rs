@@ -39,7 +39,10 @@ impl<'a> CamObject<'a> {
     /// Prepares a camera-frame primitive for rendering with intrinsics `k`.
     pub(crate) fn new(shape: Shape, material: &'a Material, kind: ObjKind, k: &Intrinsics) -> Self {
         let (lo, hi) = shape.aabb();
-        let rect = if lo.z < 1.0 {
+        let rect = if hi.z < 1.0 {
+            // Entirely behind the camera: never visible.
+            [i64::MAX / 4, i64::MIN / 4, i64::MAX / 4, i64::MIN / 4]
+        } else if lo.z < 1.0 {
             // Reaches behind the camera: no finite projected bound; test it everywhere.
             [i64::MIN / 4, i64::MAX / 4, i64::MIN / 4, i64::MAX / 4]
         } else {

@@ -274,7 +274,7 @@ fn pallet_cartons_touch_and_never_interpenetrate() {
     );
 }
 
-fn plane_noise_std(camera: CameraKind, z_mm: f64) -> (f64, f64) {
+fn plane_noise(camera: CameraKind, z_mm: f64) -> Vec<f32> {
     let k = k640();
     let mat = Material::Solid([0.5, 0.5, 0.5]);
     let wall = Shape::Cuboid {
@@ -285,7 +285,11 @@ fn plane_noise_std(camera: CameraKind, z_mm: f64) -> (f64, f64) {
     let objs = vec![CamObject::new(wall, &mat, ObjKind::Structure, &k)];
     let out = render(&objs, 0, &k, 640, 480, &Vector3::new(0.0, 0.0, -1.0));
     let mut rng = crate::rng::stream(1, 2, 3, 4);
-    let d = crate::noise::apply_realistic(&out, camera, k.fx, 640, 480, 77, &mut rng);
+    crate::noise::apply_realistic(&out, camera, k.fx, 640, 480, 77, &mut rng)
+}
+
+fn plane_noise_std(camera: CameraKind, z_mm: f64) -> (f64, f64) {
+    let d = plane_noise(camera, z_mm);
     let res: Vec<f64> = d
         .iter()
         .filter(|&&x| x > 0.0)
@@ -306,6 +310,7 @@ fn noise_std_matches_model_at_1_and_2_m() {
         for z in [1000.0, 2000.0] {
             let (mean, std) = plane_noise_std(camera, z);
             let sigma = crate::noise::axial_sigma_mm(camera, z, 0.0);
+            println!("{camera:?} at {z} mm: measured σ {std:.2} mm, model {sigma:.2} mm");
             assert!(
                 (std / sigma - 1.0).abs() < 0.2,
                 "{camera:?} at {z} mm: measured σ {std:.2} vs model {sigma:.2}"
@@ -313,6 +318,25 @@ fn noise_std_matches_model_at_1_and_2_m() {
             assert!(mean.abs() < 0.5, "biased noise: {mean}");
         }
     }
+}
+
+#[test]
+fn noise_is_spatially_correlated_like_window_matching() {
+    // Correlation of horizontally adjacent residuals: white noise would give ≈ 0.
+    let d = plane_noise(CameraKind::RealSenseD435, 1500.0);
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for v in 0..480 {
+        for u in 0..639 {
+            let (a, b) = (d[v * 640 + u], d[v * 640 + u + 1]);
+            if a > 0.0 && b > 0.0 {
+                let (a, b) = (a as f64 - 1500.0, b as f64 - 1500.0);
+                sxy += a * b;
+                sxx += a * a;
+            }
+        }
+    }
+    let corr = sxy / sxx;
+    assert!(corr > 0.3 && corr < 0.7, "neighbour correlation {corr}");
 }
 
 #[test]
