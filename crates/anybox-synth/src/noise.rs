@@ -24,6 +24,7 @@
 //!      `σ_z(z, θ) = 1.2 mm + 1.9 mm · (z_m − 0.4)²` for θ ≤ 60°, plus
 //!      `0.1 mm / √z_m · θ² / (π/2 − θ)²` above 60° (z_m = depth in metres, θ = incidence angle).
 //!      σ(1 m) ≈ 1.9 mm, σ(2 m) ≈ 6.1 mm.
+//!
 //!    The noise is split between a per-pixel white part and a spatially correlated part (a
 //!    bilinearly interpolated Gaussian field on a grid of `cell` px, renormalised to unit
 //!    variance), because stereo and structured-light sensors match windows of several pixels and
