@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use rayon::prelude::*;
 
 use crate::ap::{voc_ap, ScoredMatch};
-use crate::geom_compat::{adds_mm, iou, rotation_error_deg, size_error_mm};
+use crate::geom_compat::{adds_mm, iou, match_axes};
 use crate::report::{Figures, Report, SizeError};
 use crate::{EstEntry, EvalOptions, GtEntry};
 
@@ -201,6 +201,7 @@ fn evaluate_image(
     let mut rot_m = vec![f64::INFINITY; ne * ng];
     let mut cm_m = vec![f64::INFINITY; ne * ng];
     let mut adds_m = vec![f64::INFINITY; ne * ng];
+    let mut size_m = vec![[f64::NAN; 3]; ne * ng];
     let max_frac = ADDS_FRACTIONS.iter().map(|f| f.1).fold(0.0, f64::max);
     for e in 0..ne {
         for g in 0..ng {
@@ -212,8 +213,12 @@ fn evaluate_image(
                 iou_m[k] = iou(a, b, opts.iou);
             }
             cm_m[k] = dist / 10.0;
-            let r = rotation_error_deg(a, b);
+            // One axis matching per pair gives the rotation error (min over symmetries and
+            // relabellings, `rotation_error_deg`) and the matched size error (`size_error_mm`).
+            let m = match_axes(a, b);
+            let r = m.rotation_error_deg;
             rot_m[k] = if r.is_nan() { f64::INFINITY } else { r };
+            size_m[k] = [m.size_error_mm.x, m.size_error_mm.y, m.size_error_mm.z];
             let d = b.diagonal_mm();
             if dist - reach < max_frac * d {
                 adds_m[k] = adds_mm(a, b, ADDS_SAMPLES) / d;
@@ -247,12 +252,7 @@ fn evaluate_image(
             assign
                 .iter()
                 .enumerate()
-                .map(|(e, m)| {
-                    m.map(|g| {
-                        let v = size_error_mm(est_box(e), gt_box(g));
-                        [v.x, v.y, v.z]
-                    })
-                })
+                .map(|(e, m)| m.map(|g| size_m[e * ng + g]))
                 .collect()
         })
         .unwrap_or_else(|| vec![None; ne]);

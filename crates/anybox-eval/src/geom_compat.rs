@@ -1,15 +1,16 @@
 //! The geometric metrics the evaluator uses, in one place: `anybox_geom`'s where they exist,
-//! local stand-ins (same signatures as the cross-crate contract) for those not landed yet
-//! (`symmetry::{rotation_error_deg, size_error_mm}`, `adds::adds_mm`). Every caller goes through
+//! a local stand-in (same signature as the cross-crate contract) for the one not landed yet
+//! (`adds::adds_mm`). Every caller goes through
 //! this module, so switching is a one-line change per function.
 //!
 //! The tests keep an independent exact-IoU implementation (polyhedron clipping with caps, volume
 //! by the divergence theorem) to cross-check `anybox_geom::iou`.
 
-use anybox_geom::nalgebra::{Matrix3, Point3, Rotation3, Vector3};
+use anybox_geom::nalgebra::{Point3, Vector3};
 use anybox_geom::OrientedBox;
 
 pub use anybox_geom::iou::{iou, IouMethod};
+pub use anybox_geom::symmetry::{match_axes, rotation_error_deg, size_error_mm};
 
 /// Exact oriented-box IoU: clip box `a` (as a polyhedron) by the six face planes of `b`, and
 /// integrate the volume of the result with the divergence theorem.
@@ -172,75 +173,6 @@ fn polyhedron_volume(faces: &[Face]) -> f64 {
     v / 6.0
 }
 
-/// The 24 proper signed permutation matrices (box axis relabellings).
-fn signed_permutations() -> Vec<Matrix3<f64>> {
-    let perms = [
-        [0, 1, 2],
-        [0, 2, 1],
-        [1, 0, 2],
-        [1, 2, 0],
-        [2, 0, 1],
-        [2, 1, 0],
-    ];
-    let mut out = Vec::with_capacity(24);
-    for p in perms {
-        for s in 0..8u32 {
-            let mut m = Matrix3::zeros();
-            for (row, &col) in p.iter().enumerate() {
-                m[(row, col)] = if s & (1 << row) != 0 { -1.0 } else { 1.0 };
-            }
-            if m.determinant() > 0.0 {
-                out.push(m);
-            }
-        }
-    }
-    out
-}
-
-/// Relabellings `P` (est axes → gt axes: est axis j becomes gt axis i where `P[(j,i)] != 0`)
-/// whose size mismatch is within 5 % of the gt diagonal of the best one.
-fn admissible(est: &OrientedBox, gt: &OrientedBox) -> Vec<Matrix3<f64>> {
-    let all = signed_permutations();
-    let cost = |p: &Matrix3<f64>| {
-        let s = p.abs().transpose() * est.size_mm;
-        (s - gt.size_mm).abs().sum()
-    };
-    let best = all.iter().map(cost).fold(f64::INFINITY, f64::min);
-    let tol = best + 0.05 * gt.diagonal_mm();
-    all.into_iter().filter(|p| cost(p) <= tol).collect()
-}
-
-/// Smallest geodesic rotation angle, degrees, over box symmetries and axis relabellings.
-pub fn rotation_error_deg(est: &OrientedBox, gt: &OrientedBox) -> f64 {
-    let re = est.rotation.matrix();
-    let rg = gt.rotation.matrix();
-    admissible(est, gt)
-        .iter()
-        .map(|p| {
-            let r = Rotation3::from_matrix_unchecked(re * p);
-            let c = (((r.matrix() * rg.transpose()).trace() - 1.0) / 2.0).clamp(-1.0, 1.0);
-            c.acos().to_degrees()
-        })
-        .fold(f64::INFINITY, f64::min)
-}
-
-/// Per-axis absolute size error, mm, after matching the estimate's axes to the truth's.
-pub fn size_error_mm(est: &OrientedBox, gt: &OrientedBox) -> Vector3<f64> {
-    let re = est.rotation.matrix();
-    let rg = gt.rotation.matrix();
-    // Assign each gt axis the est axis most parallel to it (rotation-aware), as a permutation.
-    let mut best: Option<(f64, Vector3<f64>)> = None;
-    for p in signed_permutations() {
-        let r = re * p;
-        let c = ((r * rg.transpose()).trace() - 1.0) / 2.0;
-        let s = p.abs().transpose() * est.size_mm;
-        if best.as_ref().is_none_or(|b| c > b.0) {
-            best = Some((c, (s - gt.size_mm).abs()));
-        }
-    }
-    best.map(|b| b.1).unwrap_or_else(Vector3::zeros)
-}
-
 /// Deterministic, area-uniform surface samples of a box (a grid on each face).
 fn surface_samples(b: &OrientedBox, n: usize) -> Vec<Point3<f64>> {
     let s = b.size_mm;
@@ -285,6 +217,7 @@ pub fn adds_mm(est: &OrientedBox, gt: &OrientedBox, n_samples: usize) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use anybox_geom::nalgebra::Rotation3;
 
     fn bx(r: Rotation3<f64>, c: [f64; 3], s: [f64; 3]) -> OrientedBox {
         OrientedBox::new(r, Vector3::from(c), Vector3::from(s)).unwrap()
@@ -337,17 +270,6 @@ mod tests {
         let inter = 8.0 * (2f64.sqrt() - 1.0) * 2.0;
         let expected = inter / (16.0 - inter);
         assert!((exact_iou(&cube, &cube45) - expected).abs() < 1e-9);
-    }
-
-    #[test]
-    fn rotation_error_respects_symmetry() {
-        let a = bx(Rotation3::identity(), [0., 0., 500.], [200., 100., 300.]);
-        let flip = Rotation3::from_axis_angle(&Vector3::z_axis(), std::f64::consts::PI);
-        let b = bx(flip, [0., 0., 500.], [200., 100., 300.]);
-        assert!(rotation_error_deg(&b, &a) < 1e-6);
-        let r10 = Rotation3::from_axis_angle(&Vector3::x_axis(), 10f64.to_radians());
-        let c = bx(r10, [0., 0., 500.], [200., 100., 300.]);
-        assert!((rotation_error_deg(&c, &a) - 10.0).abs() < 1e-6);
     }
 
     #[test]
