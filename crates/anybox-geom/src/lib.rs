@@ -9,6 +9,7 @@
 //!   camera coordinates), `t` (box centre in camera coordinates, mm) and `size` (full extents
 //!   along the box's own x, y, z, mm).
 
+pub mod adds;
 pub mod camera;
 pub mod cuboid;
 pub mod error;
