@@ -184,6 +184,10 @@ impl Builder {
 
     fn add_box<R: Rng>(&mut self, rng: &mut R, obb: Obb, support: &'static str) {
         let tex = CartonTexture::random(rng, &obb.half);
+        self.add_box_textured(obb, support, tex);
+    }
+
+    fn add_box_textured(&mut self, obb: Obb, support: &'static str, tex: CartonTexture) {
         let i = self.boxes.len();
         self.objects.push(WorldObject {
             shape: obb.shape(),
@@ -372,6 +376,12 @@ fn build_pallet(
             )
         })
         .collect();
+    // One product per size: cartons of the same size look identical (same print and label),
+    // as on a real single-SKU pallet — the hard case for instance segmentation.
+    let textures: Vec<CartonTexture> = sizes
+        .iter()
+        .map(|s| CartonTexture::random(rng, &(s * 0.5)))
+        .collect();
     let interlock = rng.random_bool(0.5);
     let p_missing: f64 = rng.random_range(0.0..0.25);
     let max_layers = rng.random_range(1..=4);
@@ -380,15 +390,16 @@ fn build_pallet(
     let mut below: Vec<Obb> = Vec::new();
     let mut top_z = z;
     for layer in 0..max_layers {
-        let mut s = sizes[rng.random_range(0..sizes.len())];
-        if interlock && layer % 2 == 1 {
-            s = Vector3::new(s.y, s.x, s.z);
-        }
+        let si = rng.random_range(0..sizes.len());
+        let s = sizes[si];
+        // Interlocking layers turn the cartons by 90° (same model, footprint swapped).
+        let turned = interlock && layer % 2 == 1;
+        let (fx, fy) = if turned { (s.y, s.x) } else { (s.x, s.y) };
         if z + s.z > 1900.0 {
             break;
         }
-        let nx = ((pl / s.x).floor() as usize).max(1);
-        let ny = ((pw / s.y).floor() as usize).max(1);
+        let nx = ((pl / fx).floor() as usize).max(1);
+        let ny = ((pw / fy).floor() as usize).max(1);
         // Jitter that keeps neighbours touching: whole-layer shift and yaw, per-column shift
         // along y (columns slide along their shared faces).
         let layer_shift = Vector3::new(
@@ -408,8 +419,8 @@ fn build_pallet(
         let mut this_layer = Vec::new();
         for i in 0..nx {
             for j in 0..ny {
-                let lx = (i as f64 + 0.5) * s.x - nx as f64 * s.x / 2.0;
-                let ly = (j as f64 + 0.5) * s.y - ny as f64 * s.y / 2.0 + col_shift[i];
+                let lx = (i as f64 + 0.5) * fx - nx as f64 * fx / 2.0;
+                let ly = (j as f64 + 0.5) * fy - ny as f64 * fy / 2.0 + col_shift[i];
                 let c = rot * Vector3::new(lx, ly, 0.0)
                     + layer_shift
                     + Vector3::new(0.0, 0.0, z + s.z / 2.0);
@@ -422,9 +433,15 @@ fn build_pallet(
                 if missing || !supported {
                     continue;
                 }
-                let obb = Obb::new(rot, c, s);
+                let box_rot = if turned {
+                    rot * rz(std::f64::consts::FRAC_PI_2)
+                } else {
+                    rot
+                };
+                let obb = Obb::new(box_rot, c, s);
                 this_layer.push(obb);
-                b.add_box(rng, obb, if layer == 0 { "pallet" } else { "box" });
+                let support = if layer == 0 { "pallet" } else { "box" };
+                b.add_box_textured(obb, support, textures[si].clone());
             }
         }
         if this_layer.is_empty() {
