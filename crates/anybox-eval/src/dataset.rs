@@ -3,14 +3,15 @@
 //! In: a BOP dataset root and split (read with `anybox_io::bop::BopDataset`), and an anybox
 //! results JSON (`anybox_io::results`). Out: the [`Report`] of [`evaluate`].
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use anybox_io::bop::BopDataset;
 use anybox_io::IoError;
 use rayon::prelude::*;
 
-use crate::{evaluate, observed_dims, EstEntry, EvalOptions, GtEntry, Report};
+use crate::evaluate::percentile;
+use crate::{evaluate, observed_dims, EstEntry, EvalOptions, GtEntry, Report, TimeSummary};
 
 /// What can go wrong in [`evaluate_dataset`].
 #[derive(Debug, thiserror::Error)]
@@ -74,8 +75,10 @@ pub fn evaluate_dataset(
     }
     let ds = BopDataset::open(dataset, split)?;
     let gts = load_gts(&ds, opts.min_observed_dims > 0)?;
-    let ests = load_estimates(&ds, results)?;
-    Ok(evaluate(&gts, &ests, opts))
+    let (ests, times) = load_estimates(&ds, results)?;
+    let mut report = evaluate(&gts, &ests, opts);
+    report.time_s = time_summary(&times);
+    Ok(report)
 }
 
 /// Ground truths of every view; with `with_dims`, observed dimensions from the masks.
@@ -112,10 +115,44 @@ fn load_gts(ds: &BopDataset, with_dims: bool) -> Result<Vec<GtEntry>, EvalError>
     Ok(out)
 }
 
-fn load_estimates(ds: &BopDataset, results: &Path) -> Result<Vec<EstEntry>, EvalError> {
+/// `(scene_id, im_id, time_s)` of one results record.
+type RecordTime = (u32, u32, f64);
+
+/// Per-image `(max time, record count)` from `(scene, image, time)` triples; see
+/// [`TimeSummary`] for the convention.
+fn time_summary(times: &[RecordTime]) -> Option<TimeSummary> {
+    let mut per_image: BTreeMap<(u32, u32), (f64, usize)> = BTreeMap::new();
+    for &(s, i, t) in times {
+        let e = per_image.entry((s, i)).or_insert((f64::NEG_INFINITY, 0));
+        e.0 = e.0.max(t);
+        e.1 += 1;
+    }
+    let known: Vec<(f64, usize)> = per_image.into_values().filter(|(t, _)| *t >= 0.0).collect();
+    if known.is_empty() {
+        return None;
+    }
+    let mut frame: Vec<f64> = known.iter().map(|(t, _)| *t).collect();
+    frame.sort_by(f64::total_cmp);
+    let n_inst: usize = known.iter().map(|(_, n)| n).sum();
+    let total: f64 = frame.iter().sum();
+    Some(TimeSummary {
+        n_frames: frame.len(),
+        per_frame_mean: total / frame.len() as f64,
+        per_frame_median: percentile(&frame, 50.0)?,
+        per_frame_p90: percentile(&frame, 90.0)?,
+        per_instance_mean: total / n_inst as f64,
+    })
+}
+
+/// Estimates of the results file, and `(scene, image, time)` of every record.
+fn load_estimates(
+    ds: &BopDataset,
+    results: &Path,
+) -> Result<(Vec<EstEntry>, Vec<RecordTime>), EvalError> {
     let file = anybox_io::results::read_results(results)?;
     let images: BTreeSet<(u32, u32)> = ds.views.iter().map(|v| (v.scene_id, v.im_id)).collect();
     let mut out = Vec::with_capacity(file.estimates.len());
+    let mut times = Vec::with_capacity(file.estimates.len());
     for (index, e) in file.estimates.iter().enumerate() {
         if !images.contains(&(e.scene_id, e.im_id)) {
             return Err(EvalError::UnknownImage {
@@ -138,6 +175,7 @@ fn load_estimates(ds: &BopDataset, results: &Path) -> Result<Vec<EstEntry>, Eval
                 reason: format!("score and t must be finite (score {})", e.score),
             });
         }
+        times.push((e.scene_id, e.im_id, e.time));
         out.push(EstEntry {
             scene_id: e.scene_id,
             im_id: e.im_id,
@@ -146,5 +184,24 @@ fn load_estimates(ds: &BopDataset, results: &Path) -> Result<Vec<EstEntry>, Eval
             gt_index: e.gt_index,
         });
     }
-    Ok(out)
+    Ok((out, times))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn time_summary_by_frame_and_instance() {
+        // Image (0,0): 0.4 s on both records; (0,1): 0.2 s; (0,2): unknown (−1), skipped.
+        // Frames [0.2, 0.4]: mean 0.3, median 0.3, p90 = 0.2 + 0.9·0.2 = 0.38;
+        // per instance (0.4 + 0.2) / 3 records = 0.2.
+        let t = time_summary(&[(0, 0, 0.4), (0, 0, 0.4), (0, 1, 0.2), (0, 2, -1.0)]).unwrap();
+        assert_eq!(t.n_frames, 2);
+        assert!((t.per_frame_mean - 0.3).abs() < 1e-12);
+        assert!((t.per_frame_median - 0.3).abs() < 1e-12);
+        assert!((t.per_frame_p90 - 0.38).abs() < 1e-12);
+        assert!((t.per_instance_mean - 0.2).abs() < 1e-12);
+        assert!(time_summary(&[(0, 0, -1.0)]).is_none());
+    }
 }

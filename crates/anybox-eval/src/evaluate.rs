@@ -314,7 +314,7 @@ fn counted(gt: &GtEntry, opts: &EvalOptions) -> bool {
 }
 
 /// Linear-interpolated percentile (numpy's default), `q` in 0..=100, of sorted data.
-fn percentile(sorted: &[f64], q: f64) -> Option<f64> {
+pub(crate) fn percentile(sorted: &[f64], q: f64) -> Option<f64> {
     if sorted.is_empty() {
         return None;
     }
@@ -499,5 +499,6 @@ pub fn evaluate(gts: &[GtEntry], ests: &[EstEntry], opts: &EvalOptions) -> Repor
         overall,
         by_scene,
         by_visibility,
+        time_s: None,
     }
 }

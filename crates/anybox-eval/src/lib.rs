@@ -25,7 +25,8 @@
 //! bound, translation-only a 360° rotation bound, as NOCS does. With `pose_gating` (NOCS `use_matches_for_pose`), estimates and
 //! ground truths not matched at IoU 0.1 are dropped before pose matching, so pose recall is over
 //! the detected ground truths only. ADD-S matching (BOP `match_poses`): each estimate takes the
-//! unmatched ground truth with the smallest ADD-S/d, if ADD-S < f·d.
+//! unmatched ground truth with the smallest ADD-S/d, if ADD-S < f·d. ADD-S samples each box at
+//! its own size, so it mixes size and pose error (notes §2).
 //!
 //! # Ignored ground truths
 //! A ground truth is *ignored* when its `visib_fract` is below [`EvalOptions::min_visib`], or
@@ -56,7 +57,7 @@ pub use evaluate::{
 };
 pub use geom_compat::IouMethod;
 pub use observed::{observed_dims, ObservedDims, MIN_FACE_FRACTION, MIN_FACE_PX};
-pub use report::{Figures, Report, SizeError};
+pub use report::{Figures, Report, SizeError, TimeSummary};
 
 use anybox_geom::OrientedBox;
 use serde::{Deserialize, Serialize};

@@ -40,6 +40,26 @@ pub struct SizeError {
     pub matched_at_iou: f64,
 }
 
+/// Wall time read from the results file's `time` field, s (SPEC §4 "Time").
+///
+/// The results file holds the time of the whole image on every record of that image (BOP19
+/// convention, as `anybox estimate` writes it); a frame's time is the largest `time` of its
+/// records, an instance's time is its frame's time divided by the frame's record count. Negative
+/// times (unknown) are skipped.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TimeSummary {
+    /// Frames with a known time.
+    pub n_frames: usize,
+    /// Mean time per frame, s.
+    pub per_frame_mean: f64,
+    /// Median time per frame, s.
+    pub per_frame_median: f64,
+    /// 90th percentile of the time per frame, s.
+    pub per_frame_p90: f64,
+    /// Mean time per instance (frame time / instances in the frame), s.
+    pub per_instance_mean: f64,
+}
+
 /// All figures of one scope (the whole set, one scene, or one visibility band).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Figures {
@@ -82,6 +102,9 @@ pub struct Report {
     pub by_scene: BTreeMap<u32, Figures>,
     /// Figures per visibility band (`"[0.1,0.3)"`, `"[0.3,0.5)"`, `"[0.5,0.8)"`, `"[0.8,1.0]"`).
     pub by_visibility: BTreeMap<String, Figures>,
+    /// Timing from the results file (set by `evaluate_dataset`; absent from `evaluate`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_s: Option<TimeSummary>,
 }
 
 fn pct(v: Option<f64>) -> String {
@@ -206,6 +229,18 @@ impl Report {
                 mm(f.size_err_mm.median),
                 mm(f.size_err_mm.p90),
                 f.size_err_mm.n_pairs
+            );
+        }
+        if let Some(t) = &self.time_s {
+            let _ = writeln!(
+                s,
+                "\nTime (results file): per frame mean {:.3} s, median {:.3} s, p90 {:.3} s \
+                 over {} frames; per instance mean {:.3} s",
+                t.per_frame_mean,
+                t.per_frame_median,
+                t.per_frame_p90,
+                t.n_frames,
+                t.per_instance_mean
             );
         }
         s
