@@ -149,7 +149,7 @@ pub fn face_planes(obs: &Observation, cfg: &HypothesisConfig) -> Vec<FacePlane> 
             planes.push(p);
         }
     }
-    planes.sort_by(|a, b| b.inliers.len().cmp(&a.inliers.len()));
+    planes.sort_by_key(|p| std::cmp::Reverse(p.inliers.len()));
     planes
 }
 

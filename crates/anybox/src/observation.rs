@@ -9,18 +9,27 @@
 //! Outlier handling, in order:
 //! 1. *flying pixels*: a pixel whose depth differs from the median of its 3×3 in-mask valid
 //!    neighbourhood by more than `max(flying_abs_mm, flying_rel · z)` is dropped (mixed pixels at
-//!    depth edges, where a sensor interpolates between the box and the background);
+//!    depth edges, where a sensor interpolates between the box and the background). Implemented
+//!    as "more than half of the valid 3×3 neighbourhood (itself included) lies within the
+//!    tolerance", which is the median test without a sort;
 //! 2. *far outliers*: a robust distance-to-centroid cut — points farther from the component-wise
 //!    median than `median(d) + outlier_k · 1.4826 · MAD(d)` are dropped (segmentation leaks).
 //!
-//! Normals: PCA over the in-mask valid points of a `(2r+1)²` pixel window, closed-form 3×3
-//! eigen-solve (no iterative solver: this runs once per point).
+//! Normals: the "average 3D gradient" estimator (as PCL's integral-image normals): with integral
+//! images of the kept points over the mask's bounding box, the normal at a pixel is
+//! `(mean right − mean left) × (mean below − mean above)` over `(2r+1) × r` half-windows of in-mask
+//! kept neighbours — O(1) per point, exact on planes, and it never mixes in points outside the
+//! mask. (A per-point PCA eigen-solve costs ~10× more and the scale loop budget is ~10 ms per box.)
 
 use anybox_geom::Intrinsics;
 use anybox_io::image::{DepthMap, Mask};
 use nalgebra::{Matrix3, Point3, Vector3};
 
+use std::sync::OnceLock;
+
+use crate::depth_filter::CellMinDepth;
 use crate::error::EstimateError;
+use crate::hypotheses::HypothesisConfig;
 
 /// Parameters of [`observe`].
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -36,7 +45,7 @@ pub struct ObservationConfig {
     pub flying_rel: f64,
     /// Robust distance-to-centroid cut in MAD units. Default 3.5. Non-positive disables it.
     pub outlier_k: f64,
-    /// Normal-estimation window radius, px (window `(2r+1)²`). Default 2.
+    /// Normal-estimation window radius, px (half-windows of `(2r+1) × r` px). Default 3.
     pub normal_radius_px: u32,
     /// Size of the fixed subsample used for scoring and ICP. Default 600.
     pub max_subsample: usize,
@@ -49,7 +58,7 @@ impl Default for ObservationConfig {
             flying_abs_mm: 10.0,
             flying_rel: 0.03,
             outlier_k: 3.5,
-            normal_radius_px: 2,
+            normal_radius_px: 3,
             max_subsample: 600,
         }
     }
@@ -139,6 +148,18 @@ pub struct Observation {
     pub subsample: Vec<usize>,
     /// Row prefix sums of `mask` (silhouette IoU in O(rows)).
     pub mask_rows: MaskRows,
+    /// Per-observation caches filled by the first `estimate_pose` call (depth cells, hypothesis
+    /// frames), reused by the later calls of the scale loop.
+    pub(crate) cache: ObsCache,
+}
+
+/// Lazily filled, size-independent intermediate results of `estimate_pose`.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ObsCache {
+    /// `(cell_px, region_margin bits, cells)` of the depth map this observation was built from.
+    pub(crate) cells: OnceLock<(u32, u64, CellMinDepth)>,
+    /// `(config, frames)` from `hypotheses::candidate_frames`.
+    pub(crate) frames: OnceLock<(HypothesisConfig, Vec<Matrix3<f64>>)>,
 }
 
 impl Observation {
@@ -219,32 +240,28 @@ pub fn observe(
 
     // 1. Flying pixels: compare with the 3×3 in-mask valid median.
     let mut keep = vec![false; bw * bh];
-    let mut nb = [0f32; 9];
     for r in 0..bh {
         for k in 0..bw {
             let z = z_box[r * bw + k];
             if z <= 0.0 {
                 continue;
             }
-            let mut n = 0;
-            for dr in -1i64..=1 {
-                for dk in -1i64..=1 {
-                    let (rr, kk) = (r as i64 + dr, k as i64 + dk);
-                    if rr < 0 || kk < 0 || rr >= bh as i64 || kk >= bw as i64 {
-                        continue;
-                    }
-                    let zz = z_box[rr as usize * bw + kk as usize];
+            // |z − median(3×3 in-mask valid)| ≤ tol ⇔ (up to ties) at least half of the valid
+            // neighbourhood lies within tol of z; counting avoids a sort per pixel.
+            let tol = cfg.flying_abs_mm.max(cfg.flying_rel * z as f64) as f32;
+            let (mut n, mut close) = (0u32, 0u32);
+            for rr in r.saturating_sub(1)..(r + 2).min(bh) {
+                for kk in k.saturating_sub(1)..(k + 2).min(bw) {
+                    let zz = z_box[rr * bw + kk];
                     if zz > 0.0 {
-                        nb[n] = zz;
                         n += 1;
+                        if (zz - z).abs() <= tol {
+                            close += 1;
+                        }
                     }
                 }
             }
-            let vals = &mut nb[..n];
-            vals.sort_unstable_by(|a, b| a.total_cmp(b));
-            let med = vals[n / 2] as f64; // n ≥ 1: the pixel itself is valid
-            let tol = cfg.flying_abs_mm.max(cfg.flying_rel * z as f64);
-            keep[r * bw + k] = (z as f64 - med).abs() <= tol;
+            keep[r * bw + k] = 2 * close > n;
         }
     }
 
@@ -269,14 +286,18 @@ pub fn observe(
 
     // 2. Robust distance-to-centroid cut.
     if cfg.outlier_k > 0.0 {
+        // Statistics from an even stride of ≤ 4096 points: the cut only needs a threshold.
+        let stride = points.len().div_ceil(4096).max(1);
+        let probe: Vec<Point3<f64>> = points.iter().step_by(stride).copied().collect();
         let med = Point3::new(
-            median(points.iter().map(|p| p.x).collect()),
-            median(points.iter().map(|p| p.y).collect()),
-            median(points.iter().map(|p| p.z).collect()),
+            median(probe.iter().map(|p| p.x).collect()),
+            median(probe.iter().map(|p| p.y).collect()),
+            median(probe.iter().map(|p| p.z).collect()),
         );
+        let dp: Vec<f64> = probe.iter().map(|p| (p - med).norm()).collect();
+        let dm = median(dp.clone());
+        let mad = median(dp.iter().map(|x| (x - dm).abs()).collect());
         let d: Vec<f64> = points.iter().map(|p| (p - med).norm()).collect();
-        let dm = median(d.clone());
-        let mad = median(d.iter().map(|x| (x - dm).abs()).collect());
         let cut = dm + cfg.outlier_k * 1.4826 * mad;
         if cut.is_finite() && mad > 0.0 {
             let mut j = 0;
@@ -289,11 +310,6 @@ pub fn observe(
             }
             points.truncate(j);
             pixels.truncate(j);
-            // Rebuild the keep map so normals only use surviving neighbours.
-            keep.iter_mut().for_each(|k| *k = false);
-            for px in &pixels {
-                keep[(px[1] - v0) as usize * bw + (px[0] - u0) as usize] = true;
-            }
         }
     }
     if points.len() < needed {
@@ -303,52 +319,7 @@ pub fn observe(
         });
     }
 
-    // Point index per bounding-box pixel, for the normal windows.
-    let mut index = vec![u32::MAX; bw * bh];
-    for (i, px) in pixels.iter().enumerate() {
-        index[(px[1] - v0) as usize * bw + (px[0] - u0) as usize] = i as u32;
-    }
-    let rad = cfg.normal_radius_px.clamp(1, 8) as i64;
-    let mut normals = Vec::with_capacity(points.len());
-    for (i, px) in pixels.iter().enumerate() {
-        let p = points[i];
-        let (k, r) = ((px[0] - u0) as i64, (px[1] - v0) as i64);
-        let mut s = Vector3::zeros();
-        let mut ss = Matrix3::zeros();
-        let mut n = 0usize;
-        for dr in -rad..=rad {
-            let rr = r + dr;
-            if rr < 0 || rr >= bh as i64 {
-                continue;
-            }
-            for dk in -rad..=rad {
-                let kk = k + dk;
-                if kk < 0 || kk >= bw as i64 {
-                    continue;
-                }
-                let j = index[rr as usize * bw + kk as usize];
-                if j == u32::MAX {
-                    continue;
-                }
-                let q = points[j as usize] - p;
-                s += q;
-                ss += q * q.transpose();
-                n += 1;
-            }
-        }
-        let fallback = -p.coords / p.coords.norm().max(1e-12);
-        let mut nrm = if n >= 3 {
-            let mean = s / n as f64;
-            let cov = ss / n as f64 - mean * mean.transpose();
-            smallest_eigenvector(&cov).unwrap_or(fallback)
-        } else {
-            fallback
-        };
-        if nrm.dot(&p.coords) > 0.0 {
-            nrm = -nrm;
-        }
-        normals.push(nrm);
-    }
+    let normals = gradient_normals(&points, &pixels, u0, v0, bw, bh, cfg.normal_radius_px);
 
     let n = points.len();
     let centroid =
@@ -368,7 +339,81 @@ pub fn observe(
         centroid_mm: centroid,
         subsample,
         mask_rows,
+        cache: ObsCache::default(),
     })
+}
+
+/// Average-3D-gradient normals from integral images over the bounding box (module docs).
+fn gradient_normals(
+    points: &[Point3<f64>],
+    pixels: &[[u32; 2]],
+    u0: u32,
+    v0: u32,
+    bw: usize,
+    bh: usize,
+    radius_px: u32,
+) -> Vec<Vector3<f64>> {
+    // integral[(r) * (bw + 1) + k] = [count, Σx, Σy, Σz] over rows < r, columns < k.
+    let stride = bw + 1;
+    let mut integral = vec![[0f64; 4]; stride * (bh + 1)];
+    for (p, px) in points.iter().zip(pixels) {
+        let (k, r) = ((px[0] - u0) as usize, (px[1] - v0) as usize);
+        let cell = &mut integral[(r + 1) * stride + k + 1];
+        *cell = [1.0, p.x, p.y, p.z];
+    }
+    for r in 1..=bh {
+        let mut row = [0f64; 4];
+        for k in 1..=bw {
+            let i = r * stride + k;
+            let above = integral[i - stride];
+            for c in 0..4 {
+                row[c] += integral[i][c];
+                integral[i][c] = row[c] + above[c];
+            }
+        }
+    }
+    let rect = |k0: i64, k1: i64, r0: i64, r1: i64| -> [f64; 4] {
+        let k0 = k0.max(0) as usize;
+        let r0 = r0.max(0) as usize;
+        let k1 = k1.min(bw as i64 - 1);
+        let r1 = r1.min(bh as i64 - 1);
+        if k1 < k0 as i64 || r1 < r0 as i64 {
+            return [0.0; 4];
+        }
+        let (k1, r1) = (k1 as usize + 1, r1 as usize + 1);
+        let (a, b) = (integral[r1 * stride + k1], integral[r0 * stride + k1]);
+        let (c, d) = (integral[r1 * stride + k0], integral[r0 * stride + k0]);
+        [
+            a[0] - b[0] - c[0] + d[0],
+            a[1] - b[1] - c[1] + d[1],
+            a[2] - b[2] - c[2] + d[2],
+            a[3] - b[3] - c[3] + d[3],
+        ]
+    };
+    let mean = |s: [f64; 4], fallback: &Point3<f64>| {
+        if s[0] > 0.5 {
+            Vector3::new(s[1], s[2], s[3]) / s[0]
+        } else {
+            fallback.coords
+        }
+    };
+    let rad = radius_px.clamp(1, 16) as i64;
+    let mut normals = Vec::with_capacity(points.len());
+    for (p, px) in points.iter().zip(pixels) {
+        let (k, r) = ((px[0] - u0) as i64, (px[1] - v0) as i64);
+        let left = mean(rect(k - rad, k - 1, r - rad, r + rad), p);
+        let right = mean(rect(k + 1, k + rad, r - rad, r + rad), p);
+        let up = mean(rect(k - rad, k + rad, r - rad, r - 1), p);
+        let down = mean(rect(k - rad, k + rad, r + 1, r + rad), p);
+        let n = (right - left).cross(&(down - up));
+        let fallback = -p.coords / p.coords.norm().max(1e-12);
+        let mut nrm = n.try_normalize(1e-12).unwrap_or(fallback);
+        if nrm.dot(&p.coords) > 0.0 {
+            nrm = -nrm;
+        }
+        normals.push(nrm);
+    }
+    normals
 }
 
 /// Median of a non-empty vector (upper median); 0 for an empty one.

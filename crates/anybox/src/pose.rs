@@ -18,6 +18,8 @@
 //!
 //! Deterministic: every random choice uses fixed seeds from the config.
 
+use std::borrow::Cow;
+
 use anybox_geom::{Intrinsics, OrientedBox};
 use anybox_io::image::DepthMap;
 use nalgebra::{Matrix3, Point3, Rotation3, Vector2, Vector3};
@@ -58,6 +60,12 @@ pub struct PoseConfig {
     pub coarse_trunc_mm: f64,
     /// Hypotheses refined by ICP. Default 4.
     pub top_k: usize,
+    /// With a prior: a result within this angle of the prior (modulo the box's 180° symmetries)
+    /// keeps the prior's axis assignment, degrees. Default 20.
+    pub prior_gate_deg: f64,
+    /// With a prior: a result that changes the axis assignment must beat the best one that
+    /// keeps it by this fraction of its score. Default 0.1.
+    pub prior_switch_margin: f64,
     /// The depth-cell region is the mask's bounding box grown by this fraction of its larger
     /// side on every side. Default 1.0.
     pub region_margin: f64,
@@ -73,6 +81,8 @@ impl Default for PoseConfig {
             coarse_points: 200,
             coarse_trunc_mm: 20.0,
             top_k: 4,
+            prior_gate_deg: 20.0,
+            prior_switch_margin: 0.1,
             region_margin: 1.0,
         }
     }
@@ -112,7 +122,7 @@ pub struct RankedHypothesis {
 pub struct ScoringContext<'a> {
     obs: &'a Observation,
     intrinsics: &'a Intrinsics,
-    cells: CellMinDepth,
+    cells: Cow<'a, CellMinDepth>,
     samples: SurfaceSamples,
     coarse_idx: Vec<usize>,
 }
@@ -126,16 +136,25 @@ impl<'a> ScoringContext<'a> {
         size_mm: &Vector3<f64>,
         cfg: &PoseConfig,
     ) -> Self {
-        let mr = &obs.mask_rows;
-        let grow = (mr.width.max(mr.height) as f64 * cfg.region_margin.max(0.0)).ceil() as u32;
-        let cells = CellMinDepth::new(
-            depth,
-            cfg.depth_filter.cell_px,
-            mr.u0.saturating_sub(grow),
-            mr.v0.saturating_sub(grow),
-            mr.u0.saturating_add(mr.width).saturating_add(grow),
-            mr.v0.saturating_add(mr.height).saturating_add(grow),
-        );
+        let build = || {
+            let mr = &obs.mask_rows;
+            let grow = (mr.width.max(mr.height) as f64 * cfg.region_margin.max(0.0)).ceil() as u32;
+            CellMinDepth::new(
+                depth,
+                cfg.depth_filter.cell_px,
+                mr.u0.saturating_sub(grow),
+                mr.v0.saturating_sub(grow),
+                mr.u0.saturating_add(mr.width).saturating_add(grow),
+                mr.v0.saturating_add(mr.height).saturating_add(grow),
+            )
+        };
+        let key = (cfg.depth_filter.cell_px, cfg.region_margin.to_bits());
+        let cached = obs.cache.cells.get_or_init(|| (key.0, key.1, build()));
+        let cells = if (cached.0, cached.1) == key {
+            Cow::Borrowed(&cached.2)
+        } else {
+            Cow::Owned(build())
+        };
         let samples =
             SurfaceSamples::new(size_mm, cfg.depth_filter.n_samples, cfg.depth_filter.seed);
         let sub = &obs.subsample;
@@ -287,6 +306,12 @@ pub fn silhouette_iou(pose: &OrientedBox, obs: &Observation, k: &Intrinsics) -> 
     }
 }
 
+/// Geodesic angle between two rotations, degrees (clamped, never NaN for finite input).
+pub fn rotation_angle_deg(a: &Rotation3<f64>, b: &Rotation3<f64>) -> f64 {
+    let c = (((a.matrix().transpose() * b.matrix()).trace() - 1.0) / 2.0).clamp(-1.0, 1.0);
+    c.acos().to_degrees()
+}
+
 /// The 4 rotations of a box that keep every box with distinct sides onto itself.
 fn box_symmetries() -> [Matrix3<f64>; 4] {
     [
@@ -313,6 +338,10 @@ pub fn closest_variant(pose: &OrientedBox, reference: &Rotation3<f64>) -> Orient
 }
 
 /// The paper's PoseEstimate(C(s)) for a cuboid template of size `size_mm` (module docs).
+///
+/// The size-independent parts (depth cells, hypothesis frames) are cached in `obs` on the first
+/// call, so the scale loop's later calls are cheaper; `depth` must therefore be the depth map the
+/// observation was built from (as it is in the pipeline).
 ///
 /// Errors: [`EstimateError::BadTemplateSize`] for a non-finite or non-positive size,
 /// [`EstimateError::SizeMismatch`] when the depth map and the observation's mask differ in size,
@@ -345,7 +374,17 @@ pub fn estimate_pose(
         p.center_mm.iter().all(|v| v.is_finite())
             && p.rotation.matrix().iter().all(|v| v.is_finite())
     });
-    let frames = candidate_frames(obs, &cfg.hypotheses);
+    let cached = obs.cache.frames.get_or_init(|| {
+        (
+            cfg.hypotheses.clone(),
+            candidate_frames(obs, &cfg.hypotheses),
+        )
+    });
+    let frames: Cow<[Matrix3<f64>]> = if cached.0 == cfg.hypotheses {
+        Cow::Borrowed(&cached.1)
+    } else {
+        Cow::Owned(candidate_frames(obs, &cfg.hypotheses))
+    };
     let hyps = generate(obs, &frames, size_mm, prior, &cfg.hypotheses);
     let n_hypotheses = hyps.len();
     let ctx = ScoringContext::new(obs, depth, intrinsics, size_mm, cfg);
@@ -354,8 +393,24 @@ pub fn estimate_pose(
         return Err(EstimateError::NoHypothesis("no hypothesis could be scored"));
     }
     let pts: Vec<Point3<f64>> = obs.subsample.iter().map(|&i| obs.points_mm[i]).collect();
-    let mut best: Option<PoseEstimate> = None;
-    for r in ranked.iter().take(cfg.top_k.max(1)) {
+    // With a prior, the best-ranked hypothesis that keeps the prior's axis assignment is always
+    // refined, and a candidate that changes it must win by `prior_switch_margin`: the scale
+    // loop's per-axis search needs a stable axis assignment.
+    let near_prior = |b: &OrientedBox| {
+        prior.is_some_and(|p| {
+            let v = closest_variant(b, &p.rotation);
+            rotation_angle_deg(&v.rotation, &p.rotation) <= cfg.prior_gate_deg
+        })
+    };
+    let k = cfg.top_k.max(1);
+    let mut chosen: Vec<&RankedHypothesis> = ranked.iter().take(k).collect();
+    if prior.is_some() && !chosen.iter().any(|r| near_prior(&r.pose)) {
+        if let Some(r) = ranked.iter().find(|r| near_prior(&r.pose)) {
+            chosen.push(r);
+        }
+    }
+    let mut best: Option<(f64, PoseEstimate)> = None;
+    for r in chosen {
         let refined = refine_pose(&r.pose, &pts, &cfg.refine);
         let pose = refined.pose;
         let iou = ctx.silhouette_iou(&pose);
@@ -367,17 +422,26 @@ pub fn estimate_pose(
         if !score.is_finite() {
             continue;
         }
-        if best.as_ref().is_none_or(|b| score > b.score) {
-            best = Some(PoseEstimate {
-                pose,
-                score,
-                inlier_fraction: refined.inlier_fraction,
-                silhouette_iou: iou,
-                depth_penalty: pen,
-                n_hypotheses,
-            });
+        let rank_score = if prior.is_some() && !near_prior(&pose) {
+            score * (1.0 - cfg.prior_switch_margin)
+        } else {
+            score
+        };
+        if best.as_ref().is_none_or(|b| rank_score > b.0) {
+            best = Some((
+                rank_score,
+                PoseEstimate {
+                    pose,
+                    score,
+                    inlier_fraction: refined.inlier_fraction,
+                    silhouette_iou: iou,
+                    depth_penalty: pen,
+                    n_hypotheses,
+                },
+            ));
         }
     }
+    let best = best.map(|b| b.1);
     let mut best = best.ok_or(EstimateError::NoHypothesis(
         "every refined hypothesis failed",
     ))?;

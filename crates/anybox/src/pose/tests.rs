@@ -263,3 +263,146 @@ fn bad_inputs_are_errors_not_panics() {
         Err(EstimateError::TooFewPoints { valid: 0, .. })
     ));
 }
+
+/// Rotation error modulo all 24 axis relabelings, degrees (for wrong-size templates, where the
+/// axis assignment is the scale loop's business).
+fn frame_err_deg(a: &OrientedBox, b: &OrientedBox) -> f64 {
+    crate::hypotheses::frame_distance_deg(a.rotation.matrix(), b.rotation.matrix())
+}
+
+/// Report (not a pass/fail test): behaviour with wrong template sizes and release timing.
+/// `cargo test -p anybox --release --lib pose::tests::report_wrong_sizes_and_timing -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn report_wrong_sizes_and_timing() {
+    let k = cam();
+    let oc = ObservationConfig::default();
+    let cfg = PoseConfig::default();
+    let mut worst = 0.0f64;
+    for (i, yaw) in [0.3, 0.8, 1.3, 2.0].iter().enumerate() {
+        let truth = oblique_box(*yaw, Vector3::new(260.0, 170.0, 120.0 + 20.0 * i as f64));
+        let (depth, masks) = render(
+            &[truth],
+            Some((Vector3::new(0.0, -0.5, 1.0).normalize(), 1300.0)),
+            1.0,
+            3,
+        );
+        let obs = observe(&depth, &k, &masks[0], &oc).unwrap();
+        for f in [
+            [0.5, 0.5, 0.5],
+            [0.75, 1.0, 1.25],
+            [1.0, 1.0, 1.0],
+            [1.5, 1.2, 0.8],
+            [2.0, 2.0, 2.0],
+        ] {
+            let s = truth.size_mm.component_mul(&Vector3::from(f));
+            let t0 = std::time::Instant::now();
+            let n = 20;
+            let mut est = None;
+            for _ in 0..n {
+                est = Some(estimate_pose(&obs, &depth, &k, &s, None, &cfg).unwrap());
+            }
+            let dt = t0.elapsed().as_secs_f64() / n as f64;
+            let est = est.unwrap();
+            let t1 = std::time::Instant::now();
+            let with_prior = estimate_pose(&obs, &depth, &k, &s, Some(&est.pose), &cfg).unwrap();
+            let dtp = t1.elapsed().as_secs_f64();
+            let fe = frame_err_deg(&est.pose, &truth);
+            worst = worst.max(fe);
+            println!(
+                "yaw {yaw:.1} f {f:?}: frame err {fe:.2}°, centre err {:.1} mm, score {:.3} iou {:.3} inl {:.3} pen {:.3} nh {} | {:.3} ms, with prior {:.3} ms (frame err {:.2}°), pts {}",
+                (est.pose.center_mm - truth.center_mm).norm(),
+                est.score, est.silhouette_iou, est.inlier_fraction, est.depth_penalty, est.n_hypotheses,
+                dt * 1e3, dtp * 1e3, frame_err_deg(&with_prior.pose, &truth), obs.points_mm.len()
+            );
+        }
+    }
+    println!("worst frame error {worst:.2}°");
+    let truth = oblique_box(0.8, Vector3::new(260.0, 170.0, 120.0));
+    let (depth, masks) = render(&[truth], None, 1.0, 3);
+    let t0 = std::time::Instant::now();
+    for _ in 0..20 {
+        observe(&depth, &k, &masks[0], &oc).unwrap();
+    }
+    println!("observe: {:.3} ms", t0.elapsed().as_secs_f64() / 20.0 * 1e3);
+}
+
+/// CPU time of the calling thread, ns (Linux schedstat; 0 elsewhere). Wall time on a loaded
+/// 2-core machine is meaningless, CPU time much less so.
+fn thread_cpu_ns() -> u64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().and_then(|t| t.parse().ok()))
+        .unwrap_or(0)
+}
+
+/// Stage timings (report only).
+#[test]
+#[ignore]
+fn report_stage_timing() {
+    let k = cam();
+    let oc = ObservationConfig::default();
+    let cfg = PoseConfig::default();
+    let truth = oblique_box(0.8, Vector3::new(260.0, 170.0, 120.0));
+    let (depth, masks) = render(&[truth], None, 1.0, 3);
+    let obs = observe(&depth, &k, &masks[0], &oc).unwrap();
+    let n = 50;
+    let time = |name: &str, f: &mut dyn FnMut()| {
+        let t0 = std::time::Instant::now();
+        let c0 = thread_cpu_ns();
+        for _ in 0..n {
+            f();
+        }
+        let cpu = (thread_cpu_ns() - c0) as f64 / n as f64 / 1e3;
+        println!(
+            "{name}: {:.1} µs wall, {cpu:.1} µs thread CPU",
+            t0.elapsed().as_secs_f64() / n as f64 * 1e6
+        );
+    };
+    time("observe", &mut || {
+        observe(&depth, &k, &masks[0], &oc).unwrap();
+    });
+    time("frames", &mut || {
+        candidate_frames(&obs, &cfg.hypotheses);
+    });
+    let frames = candidate_frames(&obs, &cfg.hypotheses);
+    time("generate", &mut || {
+        generate(&obs, &frames, &truth.size_mm, None, &cfg.hypotheses);
+    });
+    let hyps = generate(&obs, &frames, &truth.size_mm, None, &cfg.hypotheses);
+    time("context", &mut || {
+        ScoringContext::new(&obs, &depth, &k, &truth.size_mm, &cfg);
+    });
+    let ctx = ScoringContext::new(&obs, &depth, &k, &truth.size_mm, &cfg);
+    time("rank", &mut || {
+        ctx.rank(&hyps, &cfg);
+    });
+    let pts: Vec<Point3<f64>> = obs.subsample.iter().map(|&i| obs.points_mm[i]).collect();
+    time("refine x1", &mut || {
+        refine_pose(&hyps[0], &pts, &cfg.refine);
+    });
+    time("iou x1", &mut || {
+        ctx.silhouette_iou(&hyps[0]);
+    });
+    time("estimate_pose", &mut || {
+        estimate_pose(&obs, &depth, &k, &truth.size_mm, None, &cfg).unwrap();
+    });
+}
+
+/// Profiling target: observe only (report only).
+#[test]
+#[ignore]
+fn profile_observe() {
+    let k = cam();
+    let oc = ObservationConfig::default();
+    let truth = oblique_box(0.8, Vector3::new(260.0, 170.0, 120.0));
+    let (depth, masks) = render(&[truth], None, 1.0, 3);
+    let c0 = thread_cpu_ns();
+    for _ in 0..300 {
+        observe(&depth, &k, &masks[0], &oc).unwrap();
+    }
+    println!(
+        "observe {:.1} µs CPU",
+        (thread_cpu_ns() - c0) as f64 / 300.0 / 1e3
+    );
+}
