@@ -1,14 +1,17 @@
-//! The geometric metrics the evaluator uses, in one place: `anybox_geom`'s where they exist,
-//! a local stand-in (same signature as the cross-crate contract) for the one not landed yet
-//! (`adds::adds_mm`). Every caller goes through
-//! this module, so switching is a one-line change per function.
+//! The geometric metrics the evaluator uses, in one place: `anybox_geom::iou::iou` (3D IoU),
+//! `anybox_geom::symmetry::match_axes` (rotation error over symmetries and relabellings, matched
+//! size error) and `anybox_geom::adds::adds_mm` (ADD-S).
 //!
-//! The tests keep an independent exact-IoU implementation (polyhedron clipping with caps, volume
-//! by the divergence theorem) to cross-check `anybox_geom::iou`.
+//! The tests keep independent implementations to cross-check them: exact IoU by polyhedron
+//! clipping with caps (volume by the divergence theorem), and ADD-S on a deterministic
+//! per-face grid instead of random samples.
 
+#[cfg(test)]
 use anybox_geom::nalgebra::{Point3, Vector3};
+#[cfg(test)]
 use anybox_geom::OrientedBox;
 
+pub use anybox_geom::adds::adds_mm;
 pub use anybox_geom::iou::{iou, IouMethod};
 pub use anybox_geom::symmetry::{match_axes, rotation_error_deg, size_error_mm};
 
@@ -173,7 +176,8 @@ fn polyhedron_volume(faces: &[Face]) -> f64 {
     v / 6.0
 }
 
-/// Deterministic, area-uniform surface samples of a box (a grid on each face).
+/// Deterministic, area-uniform surface samples (test-only independent ADD-S reference) of a box (a grid on each face).
+#[cfg(test)]
 fn surface_samples(b: &OrientedBox, n: usize) -> Vec<Point3<f64>> {
     let s = b.size_mm;
     let areas = [s.y * s.z, s.x * s.z, s.x * s.y];
@@ -202,7 +206,8 @@ fn surface_samples(b: &OrientedBox, n: usize) -> Vec<Point3<f64>> {
 
 /// ADD-S (BOP `adi`), mm: mean distance from points on the true box surface to the nearest
 /// point of the estimated box surface.
-pub fn adds_mm(est: &OrientedBox, gt: &OrientedBox, n_samples: usize) -> f64 {
+#[cfg(test)]
+fn grid_adds_mm(est: &OrientedBox, gt: &OrientedBox, n_samples: usize) -> f64 {
     let pts = surface_samples(gt, n_samples);
     if pts.is_empty() {
         return f64::INFINITY;
@@ -273,11 +278,22 @@ mod tests {
     }
 
     #[test]
-    fn adds_of_identical_boxes_is_zero() {
+    fn geom_adds_agrees_with_grid_reference() {
         let a = bx(Rotation3::identity(), [0., 0., 500.], [200., 100., 300.]);
-        assert!(adds_mm(&a, &a, 500) < 1e-9);
-        let b = bx(Rotation3::identity(), [0., 0., 510.], [200., 100., 300.]);
-        let d = adds_mm(&b, &a, 2000);
-        assert!(d > 0.0 && d <= 10.0);
+        assert!(grid_adds_mm(&a, &a, 500) < 1e-9);
+        assert!(adds_mm(&a, &a, 1000) < 1e-9);
+        for (r, c) in [
+            (Rotation3::identity(), [0., 0., 510.]),
+            (
+                Rotation3::from_euler_angles(0.2, 0.1, -0.3),
+                [5., -8., 520.],
+            ),
+            (Rotation3::from_euler_angles(0.0, 0.0, 1.0), [40., 0., 500.]),
+        ] {
+            let b = bx(r, c, [190., 110., 280.]);
+            let grid = grid_adds_mm(&b, &a, 20000);
+            let geom = adds_mm(&b, &a, 4000);
+            assert!((grid - geom).abs() < 0.03 * grid + 0.2, "{grid} vs {geom}");
+        }
     }
 }
