@@ -152,6 +152,15 @@ impl CartonTexture {
                 }
             }
         }
+        // Creased, slightly dirty carton edges and the flap seam across the top: what makes
+        // touching identical cartons separable in RGB at all.
+        let (ia, ib) = other_axes(axis);
+        let edge = (half[ia] - p[ia].abs()).min(half[ib] - p[ib].abs());
+        if edge < 2.5 {
+            c = c.map(|x| x * 0.72);
+        } else if axis == 2 && p.y.abs() < 1.5 {
+            c = c.map(|x| x * 0.55);
+        }
         if let Some((hw, col, run)) = self.tape {
             let on_top = axis == 2 && sign > 0.0;
             let on_end = axis == 0 && p.z >= half.z - run;
