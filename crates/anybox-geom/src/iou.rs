@@ -60,7 +60,8 @@ impl IouMethod {
 
 impl fmt::Display for IouMethod {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
+        // `pad` honours width/alignment flags, e.g. in tables.
+        f.pad(self.as_str())
     }
 }
 
@@ -239,6 +240,10 @@ pub fn intersection_volume_mm3(a: &OrientedBox, b: &OrientedBox) -> f64 {
     // Points within `eps` of a plane count as on it: rounding noise is ~1e-16·scale, and the
     // volume error this tolerance can cause is at most ~eps·(surface area).
     let eps = 1e-9 * scale;
+    // Separated bounding spheres: disjoint (the common case when matching many pairs).
+    if (b.center_mm - origin).norm() > a.half_size_mm().norm() + b.half_size_mm().norm() + eps {
+        return 0.0;
+    }
     let mut poly: Vec<(Plane, Poly)> = faces(a, &origin).into_iter().collect();
     for (plane, _) in faces(b, &origin).iter() {
         match clip_polyhedron(poly, plane, eps) {
