@@ -554,59 +554,75 @@ pub fn write_dataset(cfg: &SynthConfig, out: &Path) -> Result<Summary, SynthErro
         distractors: 0,
         elapsed_s: 0.0,
     };
-    for s in 0..cfg.scenes {
-        let sc = build(cfg, s);
-        let views: Vec<SynthView> = (0..cfg.views)
-            .into_par_iter()
-            .map(|v| render_view(cfg, &sc, &reg, s, v))
-            .collect();
-        let records: Vec<ViewRecord> = views
-            .iter()
-            .map(|v| ViewRecord {
-                im_id: v.im_id,
-                rgb: v.rgb.clone(),
-                depth: v.depth.clone(),
-                intrinsics: v.intrinsics,
-                depth_scale: v.depth_scale,
-                gts: v
-                    .boxes
-                    .iter()
-                    .map(|b| GtRecordOut {
-                        obj_id: b.obj_id,
-                        pose: b.pose,
-                        mask_visib: b.mask_visib.clone(),
-                        px_count_all: b.px_count_all,
-                        px_count_valid: b.px_count_valid,
-                        visib_fract: b.visib_fract,
-                        bbox_obj: b.bbox_obj,
-                    })
-                    .collect(),
-            })
-            .collect();
-        writer.write_scene(s, &records)?;
-        let supports: BTreeMap<String, usize> =
-            sc.boxes.iter().fold(BTreeMap::new(), |mut m, b| {
-                *m.entry(b.support.to_string()).or_insert(0) += 1;
-                m
-            });
-        let meta = serde_json::json!({
-            "layout": sc.layout.name(),
-            "distractors": sc.distractors,
-            "camera": camera_name(sc.camera),
-            "noise": cfg.noise.to_string(),
-            "seed": cfg.seed,
-            "boxes_in_scene": sc.boxes.len(),
-            "supports": supports,
-            "units": "mm; depth PNG value × depth_scale (1.0) = depth in mm",
-        });
-        writer.write_scene_meta(s, &meta)?;
+    // Scenes in parallel (the writer takes `&self`); results gathered in scene order.
+    let per_scene: Vec<(u32, u64, u32)> = (0..cfg.scenes)
+        .into_par_iter()
+        .map(|s| write_scene(cfg, &reg, &writer, s))
+        .collect::<Result<_, SynthError>>()?;
+    for (views, boxes, distractors) in per_scene {
         summary.scenes += 1;
-        summary.views += views.len() as u32;
-        summary.boxes += views.iter().map(|v| v.boxes.len() as u64).sum::<u64>();
-        summary.distractors += sc.distractors as u64;
+        summary.views += views;
+        summary.boxes += boxes;
+        summary.distractors += distractors as u64;
     }
     summary.elapsed_s = t0.elapsed().as_secs_f64();
     Ok(summary)
+}
+
+/// Renders and writes one scene; returns `(views, GT boxes, distractors)`.
+fn write_scene(
+    cfg: &SynthConfig,
+    reg: &BTreeMap<[i64; 3], u32>,
+    writer: &DatasetWriter,
+    s: u32,
+) -> Result<(u32, u64, u32), SynthError> {
+    let sc = build(cfg, s);
+    let views: Vec<SynthView> = (0..cfg.views)
+        .into_par_iter()
+        .map(|v| render_view(cfg, &sc, reg, s, v))
+        .collect();
+    let n_views = views.len() as u32;
+    let n_boxes = views.iter().map(|v| v.boxes.len() as u64).sum::<u64>();
+    let records: Vec<ViewRecord> = views
+        .into_iter()
+        .map(|v| ViewRecord {
+            im_id: v.im_id,
+            rgb: v.rgb,
+            depth: v.depth,
+            intrinsics: v.intrinsics,
+            depth_scale: v.depth_scale,
+            gts: v
+                .boxes
+                .into_iter()
+                .map(|b| GtRecordOut {
+                    obj_id: b.obj_id,
+                    pose: b.pose,
+                    mask_visib: b.mask_visib,
+                    px_count_all: b.px_count_all,
+                    px_count_valid: b.px_count_valid,
+                    visib_fract: b.visib_fract,
+                    bbox_obj: b.bbox_obj,
+                })
+                .collect(),
+        })
+        .collect();
+    writer.write_scene(s, &records)?;
+    let supports: BTreeMap<String, usize> = sc.boxes.iter().fold(BTreeMap::new(), |mut m, b| {
+        *m.entry(b.support.to_string()).or_insert(0) += 1;
+        m
+    });
+    let meta = serde_json::json!({
+        "layout": sc.layout.name(),
+        "distractors": sc.distractors,
+        "camera": camera_name(sc.camera),
+        "noise": cfg.noise.to_string(),
+        "seed": cfg.seed,
+        "boxes_in_scene": sc.boxes.len(),
+        "supports": supports,
+        "units": "mm; depth PNG value × depth_scale (1.0) = depth in mm",
+    });
+    writer.write_scene_meta(s, &meta)?;
+    Ok((n_views, n_boxes, sc.distractors))
 }
 
 #[cfg(test)]
