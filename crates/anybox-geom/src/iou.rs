@@ -65,6 +65,8 @@ impl fmt::Display for IouMethod {
     }
 }
 
+/// Parses `exact`, `aabb` (alias `catre`) or `nocs-legacy` (aliases `nocs_legacy`, `legacy`),
+/// case-insensitively.
 impl FromStr for IouMethod {
     type Err = GeomError;
 
