@@ -194,4 +194,30 @@ proptest! {
         let bound = 4.0 * (angle * 3.0 + shift / a.size_mm.min()) + 1e-9;
         prop_assert!(v <= 1.0 && 1.0 - v < bound, "iou {} angle {} shift {}", v, angle, shift);
     }
+
+    #[test]
+    fn exact_iou_is_invariant_to_rigid_motion_and_scale((a, b) in overlapping_pair(), r in rotation(), k in 0.01f64..100.0) {
+        let base = iou(&a, &b, IouMethod::Exact);
+        let far = Vector3::new(2.0e4, -3.0e4, 5.0e4);
+        let moved = |x: &OrientedBox| {
+            OrientedBox::new(r * x.rotation, r * x.center_mm + far, x.size_mm).unwrap()
+        };
+        let scaled = |x: &OrientedBox| {
+            OrientedBox::new(x.rotation, x.center_mm * k, x.size_mm * k).unwrap()
+        };
+        prop_assert!((iou(&moved(&a), &moved(&b), IouMethod::Exact) - base).abs() < 1e-7);
+        prop_assert!((iou(&scaled(&a), &scaled(&b), IouMethod::Exact) - base).abs() < 1e-9);
+    }
+
+    #[test]
+    fn thin_boxes_match_monte_carlo(a in a_box(), r in rotation(), t in 0.05f64..2.0, off in (-0.3f64..0.3, -0.3f64..0.3)) {
+        // A thin slab (down to 0.05 mm) cutting through a box: the volume inside is a slab
+        // fraction, estimated by MC over the slab.
+        let s = Vector3::new(600.0, 600.0, t);
+        let c = a.center_mm + Vector3::new(off.0, off.1, 0.0) * a.size_mm.amax();
+        let slab = OrientedBox::new(r, c, s).unwrap();
+        let inter = mc_intersection_mm3(&slab, &a, 40, 11);
+        let v = intersection_volume_mm3(&slab, &a);
+        prop_assert!((v - inter).abs() <= 0.01 * slab.volume_mm3(), "{} vs {}", v, inter);
+    }
 }
