@@ -1,6 +1,6 @@
 //! Times the generator and writes preview images.
 //!
-//! `cargo run --release -p anybox-synth --example synth_timing -- [OUT_DIR] [N_VIEWS]`
+//! `cargo run --release -p anybox-synth --example synth_timing -- [OUT_DIR or -] [N_VIEWS]`
 //! prints the time of one 640×480 view per layout and of N views (default 100, mixed layout),
 //! and, when OUT_DIR is given, writes `LAYOUT_rgb.png`, `LAYOUT_depth.png` (grey, near = bright)
 //! and `LAYOUT_masks.png` (visible masks in false colour) there.
@@ -11,7 +11,7 @@ use anybox_synth::{generate_view, Layout, NoiseModel, SynthConfig};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let out = args.get(1).cloned();
+    let out = args.get(1).filter(|s| !s.is_empty() && *s != "-").cloned();
     let n: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(100);
     for layout in [Layout::Pallet, Layout::Table, Layout::Shelf] {
         let cfg = SynthConfig {

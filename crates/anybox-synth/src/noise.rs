@@ -78,27 +78,40 @@ pub(crate) fn correlated_part(camera: CameraKind) -> (f64, f64) {
     }
 }
 
-/// Unit-variance smooth Gaussian field at pixel `(u, v)`: bilinear interpolation of independent
-/// normals on a `cell`-px grid, divided by the root of the summed squared weights.
-fn smooth_field(key: u64, u: f64, v: f64, cell: f64) -> f64 {
-    let (gx, gy) = (u / cell, v / cell);
-    let (x0, y0) = (gx.floor(), gy.floor());
-    let (fx, fy) = (gx - x0, gy - y0);
-    let g = |dx: f64, dy: f64| {
-        gauss(hash3(
-            key,
-            ((x0 + dx) as i64) as u64,
-            ((y0 + dy) as i64) as u64 ^ 0xF1E1D,
-        ))
-    };
-    let w = [
-        (1.0 - fx) * (1.0 - fy),
-        fx * (1.0 - fy),
-        (1.0 - fx) * fy,
-        fx * fy,
-    ];
-    let val = w[0] * g(0.0, 0.0) + w[1] * g(1.0, 0.0) + w[2] * g(0.0, 1.0) + w[3] * g(1.0, 1.0);
-    val / w.iter().map(|x| x * x).sum::<f64>().sqrt()
+/// Unit-variance smooth Gaussian field: bilinear interpolation of independent normals on a
+/// `cell`-px grid, divided by the root of the summed squared weights (so every pixel has unit
+/// variance). The grid normals are drawn once per frame.
+struct SmoothField {
+    cell: f64,
+    nx: usize,
+    grid: Vec<f64>,
+}
+
+impl SmoothField {
+    fn new(key: u64, width: usize, height: usize, cell: f64) -> SmoothField {
+        let nx = (width as f64 / cell).ceil() as usize + 2;
+        let ny = (height as f64 / cell).ceil() as usize + 2;
+        let grid = (0..nx * ny)
+            .map(|i| gauss(hash3(key, i as u64, 0xF1E1D)))
+            .collect();
+        SmoothField { cell, nx, grid }
+    }
+
+    fn at(&self, u: f64, v: f64) -> f64 {
+        let (gx, gy) = (u / self.cell, v / self.cell);
+        let (x0, y0) = (gx.floor(), gy.floor());
+        let (fx, fy) = (gx - x0, gy - y0);
+        let i = y0 as usize * self.nx + x0 as usize;
+        let g = |j: usize| self.grid.get(j).copied().unwrap_or(0.0);
+        let w = [
+            (1.0 - fx) * (1.0 - fy),
+            fx * (1.0 - fy),
+            (1.0 - fx) * fy,
+            fx * fy,
+        ];
+        let val = w[0] * g(i) + w[1] * g(i + 1) + w[2] * g(i + self.nx) + w[3] * g(i + self.nx + 1);
+        val / w.iter().map(|x| x * x).sum::<f64>().sqrt()
+    }
 }
 
 /// The sensor's working range `(min, max)`, mm.
@@ -217,7 +230,7 @@ pub(crate) fn apply_realistic(
     let (zmin, zmax) = range_mm(camera);
     let (rho, cell) = correlated_part(camera);
     let (a_white, a_field) = ((1.0 - rho).sqrt(), rho.sqrt());
-    let field_key = hash3(key, 0, 32);
+    let field = SmoothField::new(hash3(key, 0, 32), w, h, cell);
     (0..w * h)
         .map(|i| {
             if !keep[i] || draw(i, 30) < 0.002 {
@@ -225,7 +238,7 @@ pub(crate) fn apply_realistic(
             }
             let theta = (r.cos_inc[i] as f64).clamp(0.0, 1.0).acos();
             let n = a_white * gauss(hash3(key, i as u64, 31))
-                + a_field * smooth_field(field_key, (i % w) as f64, (i / w) as f64, cell);
+                + a_field * field.at((i % w) as f64, (i / w) as f64);
             let zn = out[i] + axial_sigma_mm(camera, out[i], theta) * n;
             let q = zn.round();
             if q < zmin || q > zmax {
