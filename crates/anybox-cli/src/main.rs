@@ -9,6 +9,7 @@ mod cmd_bench;
 mod cmd_demo;
 mod cmd_estimate;
 mod cmd_eval;
+mod cmd_synth;
 
 /// anybox — zero-shot 9-DoF box pose and size from one RGB-D frame, on a CPU.
 ///
@@ -16,7 +17,7 @@ mod cmd_eval;
 /// (row-major, box→camera), t (box centre, mm) and size (full extents, mm). Camera: OpenCV
 /// pinhole, x right, y down, z forward, intrinsics in pixels.
 #[derive(Debug, Parser)]
-#[command(name = "anybox", version, about, long_about = None)]
+#[command(name = "anybox", version)]
 struct Cli {
     /// Worker threads (default: all cores).
     #[arg(long, global = true, value_name = "N")]
@@ -35,6 +36,8 @@ enum Command {
     Bench(cmd_bench::BenchArgs),
     /// Score a results file against a BOP dataset (SPEC §4 metrics).
     Eval(cmd_eval::EvalArgs),
+    /// Write a synthetic warehouse-like BOP dataset.
+    Synth(cmd_synth::SynthArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -49,5 +52,6 @@ fn main() -> anyhow::Result<()> {
         Command::Estimate(a) => cmd_estimate::run(a),
         Command::Bench(a) => cmd_bench::run(a),
         Command::Eval(a) => cmd_eval::run(a),
+        Command::Synth(a) => cmd_synth::run(a),
     }
 }
