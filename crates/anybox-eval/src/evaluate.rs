@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use rayon::prelude::*;
 
 use crate::ap::{voc_ap, ScoredMatch};
-use crate::geom_compat::{adds_mm, iou, match_axes};
+use crate::geom_compat::{iou, match_axes, AddsReference};
 use crate::report::{Figures, Report, SizeError};
 use crate::{EstEntry, EvalOptions, GtEntry};
 
@@ -203,6 +203,10 @@ fn evaluate_image(
     let mut adds_m = vec![f64::INFINITY; ne * ng];
     let mut size_m = vec![[f64::NAN; 3]; ne * ng];
     let max_frac = ADDS_FRACTIONS.iter().map(|f| f.1).fold(0.0, f64::max);
+    // Surface samples of each GT, drawn once per image instead of once per pair.
+    let adds_refs: Vec<AddsReference> = (0..ng)
+        .map(|g| AddsReference::new(gt_box(g), ADDS_SAMPLES))
+        .collect();
     for e in 0..ne {
         for g in 0..ng {
             let (a, b) = (est_box(e), gt_box(g));
@@ -220,8 +224,8 @@ fn evaluate_image(
             rot_m[k] = if r.is_nan() { f64::INFINITY } else { r };
             size_m[k] = [m.size_error_mm.x, m.size_error_mm.y, m.size_error_mm.z];
             let d = b.diagonal_mm();
-            if dist - reach < max_frac * d {
-                adds_m[k] = adds_mm(a, b, ADDS_SAMPLES) / d;
+            if let Some(v) = adds_refs[g].adds_mm_below(a, max_frac * d) {
+                adds_m[k] = v / d;
             }
         }
     }

@@ -6,12 +6,59 @@
 //! clipping with caps (volume by the divergence theorem), and ADD-S on a deterministic
 //! per-face grid instead of random samples.
 
-#[cfg(test)]
 use anybox_geom::nalgebra::{Point3, Vector3};
-#[cfg(test)]
 use anybox_geom::OrientedBox;
 
 pub use anybox_geom::adds::adds_mm;
+use anybox_geom::adds::{sample_surface_mm, ADDS_SEED};
+
+/// A ground truth's ADD-S surface samples, drawn once and reused for every estimate.
+///
+/// [`AddsReference::adds_mm`] equals `anybox_geom::adds::adds_mm(est, gt, n)` exactly (same
+/// samples — `sample_surface_mm(gt, n, ADDS_SEED)` — same summation order; a test checks it).
+pub struct AddsReference {
+    pts: Vec<Point3<f64>>,
+    mean: Point3<f64>,
+}
+
+impl AddsReference {
+    /// Samples `n` points (> 0) on the true box's surface.
+    pub fn new(gt: &OrientedBox, n: usize) -> Self {
+        let pts = sample_surface_mm(gt, n.max(1), ADDS_SEED);
+        let sum = pts.iter().fold(Vector3::zeros(), |s, p| s + p.coords);
+        let mean = Point3::from(sum / pts.len().max(1) as f64);
+        Self { pts, mean }
+    }
+
+    /// ADD-S of `est` against this ground truth, mm.
+    pub fn adds_mm(&self, est: &OrientedBox) -> f64 {
+        let sum: f64 = self
+            .pts
+            .iter()
+            .map(|p| (p - est.closest_surface_point(p)).norm())
+            .sum();
+        sum / self.pts.len() as f64
+    }
+
+    /// ADD-S of `est`, or `None` when it certainly is at least `limit_mm`.
+    ///
+    /// The cheap certificate: the distance to the surface is at least the distance to the solid
+    /// box, which is convex, so by Jensen the mean over the samples is at least the distance of
+    /// the samples' mean point to the solid box.
+    pub fn adds_mm_below(&self, est: &OrientedBox, limit_mm: f64) -> Option<f64> {
+        let l = est.to_local(&self.mean);
+        let h = est.half_size_mm();
+        let outside = Vector3::new(
+            (l.x.abs() - h.x).max(0.0),
+            (l.y.abs() - h.y).max(0.0),
+            (l.z.abs() - h.z).max(0.0),
+        );
+        if outside.norm() >= limit_mm {
+            return None;
+        }
+        Some(self.adds_mm(est))
+    }
+}
 pub use anybox_geom::iou::{iou, IouMethod};
 pub use anybox_geom::symmetry::{match_axes, rotation_error_deg, size_error_mm};
 
@@ -294,6 +341,24 @@ mod tests {
             let grid = grid_adds_mm(&b, &a, 20000);
             let geom = adds_mm(&b, &a, 4000);
             assert!((grid - geom).abs() < 0.03 * grid + 0.2, "{grid} vs {geom}");
+            // The cached reference is bit-identical to anybox_geom's function.
+            assert_eq!(AddsReference::new(&a, 4000).adds_mm(&b), geom);
+        }
+        // The pruning certificate never rejects an ADD-S below the limit.
+        let refa = AddsReference::new(&a, 1000);
+        for dx in [0.0, 50.0, 150.0, 250.0, 400.0, 800.0] {
+            let b = bx(
+                Rotation3::from_euler_angles(0.1, 0.4, 0.2),
+                [dx, 0., 500.],
+                [190., 110., 280.],
+            );
+            let v = adds_mm(&b, &a, 1000);
+            for limit in [10.0, 30.0, 100.0, 300.0] {
+                match refa.adds_mm_below(&b, limit) {
+                    Some(w) => assert_eq!(w, v),
+                    None => assert!(v >= limit, "pruned {v} < {limit}"),
+                }
+            }
         }
     }
 }
