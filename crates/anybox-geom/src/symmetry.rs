@@ -21,9 +21,13 @@
 //!
 //! **Rotation error** ([`rotation_error_deg`], [`match_axes`]): boxes are symmetric and their
 //! axis order is arbitrary, so the estimate is first relabelled. For each of the 6 axis
-//! permutations `π` the size cost is `Σ_j |s_est,π(j) − s_gt,j|`; every permutation whose cost is
-//! within [`AXIS_MATCH_REL_TOL`] `× Σ_j s_gt,j` of the best is admissible, and brings its 4 sign
-//! variants (the proper ones). The rotation error is the smallest geodesic angle
+//! permutations `π` the size cost is `c(π) = Σ_j |s_est,π(j) − s_gt,j|`. With `π*` the cheapest
+//! (the closest to `π` among those tied for cheapest, up to rounding), `π` is admissible when
+//! `c(π) − c(π*) <= τ · Σ_{j : π(j) ≠ π*(j)} s_gt,j`, `τ =`
+//! [`AXIS_MATCH_REL_TOL`] — the slack is relative to the ground-truth extents of the axes that
+//! `π` moves, so that with a perfect size estimate two axes are interchangeable exactly when
+//! their extents differ by about `τ` or less, as in [`symmetry_group`]. Each admissible
+//! permutation brings its 4 sign variants (the proper ones). The rotation error is the smallest geodesic angle
 //! `∠(R_est·P, R_gt)` over those relabellings `P`. Consequences: a box with three clearly
 //! distinct extents is compared modulo its D2 symmetry (180° turns about its axes cost 0), a
 //! square cross-section or a cube also modulo the 90° turns (the swapped permutations tie in cost),
@@ -39,8 +43,9 @@ use crate::OrientedBox;
 /// they differ by at most 5 % of the larger one.
 pub const DEFAULT_SYMMETRY_REL_TOL: f64 = 0.05;
 
-/// Admissibility tolerance of the axis matching in [`rotation_error_deg`]: a permutation is
-/// admissible when its size cost is within 5 % of the sum of the ground-truth extents of the best.
+/// Admissibility tolerance `τ` of the axis matching in [`rotation_error_deg`] (module docs): a
+/// permutation is admissible when its size cost exceeds the best by at most 5 % of the
+/// ground-truth extents of the axes it moves relative to the best permutation.
 pub const AXIS_MATCH_REL_TOL: f64 = 0.05;
 
 /// The 24 proper (det +1) signed permutation matrices, as rotations; the identity first.
@@ -222,8 +227,7 @@ pub fn match_axes(est: &OrientedBox, gt: &OrientedBox) -> AxisMatch {
     match_axes_with_tol(est, gt, AXIS_MATCH_REL_TOL)
 }
 
-/// Matches `est`'s axes to `gt`'s (module docs); `rel_tol` is the admissibility tolerance as a
-/// fraction of the sum of the ground-truth extents.
+/// Matches `est`'s axes to `gt`'s (module docs); `rel_tol` is the admissibility tolerance `τ`.
 pub fn match_axes_with_tol(est: &OrientedBox, gt: &OrientedBox, rel_tol: f64) -> AxisMatch {
     let perms = signed_permutations();
     let cost = |p: &Rotation3<f64>| -> f64 {
@@ -234,11 +238,32 @@ pub fn match_axes_with_tol(est: &OrientedBox, gt: &OrientedBox, rel_tol: f64) ->
     };
     let costs: Vec<f64> = perms.iter().map(cost).collect();
     let best = costs.iter().copied().fold(f64::INFINITY, f64::min);
-    let slack = rel_tol.max(0.0) * gt.size_mm.iter().map(|s| s.abs()).sum::<f64>();
+    // L1 assignment costs tie exactly in many configurations, and rounding then picks one of
+    // them arbitrarily: treat every permutation within rounding of the best as a "best", and
+    // measure the moved axes against the closest of them, so that the result does not depend on
+    // how either box is described.
+    let round = 1e-9 * gt.size_mm.iter().map(|s| s.abs()).sum::<f64>();
+    let best_perms: Vec<[usize; 3]> = perms
+        .iter()
+        .zip(costs.iter())
+        .filter(|(_, c)| **c <= best + round)
+        .map(|(p, _)| perm_of(p))
+        .collect();
+    let tol = rel_tol.max(0.0);
     let mut out: Option<AxisMatch> = None;
     for (p, c) in perms.iter().zip(costs.iter()) {
+        let pi = perm_of(p);
+        let moved = best_perms
+            .iter()
+            .map(|b| {
+                (0..3)
+                    .filter(|j| pi[*j] != b[*j])
+                    .map(|j| gt.size_mm[j].abs())
+                    .sum::<f64>()
+            })
+            .fold(f64::INFINITY, f64::min);
         // NaN sizes make every comparison false: fall back to considering all relabellings.
-        if *c > best + slack {
+        if *c - best > tol * moved + round {
             continue;
         }
         let err = geodesic_deg(&(est.rotation * p), &gt.rotation);
