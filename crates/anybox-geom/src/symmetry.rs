@@ -439,6 +439,25 @@ mod tests {
     }
 
     #[test]
+    fn nearly_square_cross_section_follows_the_tolerance() {
+        // Perfect size estimate, 90° turn about z. Swapping x and y costs 2·|s_x − s_y|; it is
+        // admissible when that is at most 5 % of s_x + s_y.
+        for (sy, want) in [(103.0, 0.0), (105.0, 0.0), (106.0, 90.0), (115.0, 90.0)] {
+            let gt = bx(Rotation3::identity(), [100.0, sy, 300.0]);
+            let est = OrientedBox {
+                rotation: rot(Vector3::z(), 90.0),
+                ..gt
+            };
+            let e = rotation_error_deg(&est, &gt);
+            assert!((e - want).abs() < 1e-6, "s_y = {sy}: {e}");
+            // With the match, the size error is the difference of the swapped extents.
+            let m = match_axes(&est, &gt);
+            let se = if want == 0.0 { sy - 100.0 } else { 0.0 };
+            assert!((m.size_error_mm - Vector3::new(se, se, 0.0)).norm() < 1e-9);
+        }
+    }
+
+    #[test]
     fn size_error_uses_matched_axes() {
         let gt = bx(Rotation3::identity(), [200.0, 100.0, 300.0]);
         // Relabelled estimate with errors +10 (x), -5 (y), +20 (z) in gt order.
