@@ -23,24 +23,24 @@
 //! axis order is arbitrary, so the estimate is first relabelled. For each of the 6 axis
 //! permutations `π` the size cost is `c(π) = Σ_j |s_est,π(j) − s_gt,j|`. With `π*` the cheapest
 //! (the closest to `π` among those tied for cheapest, up to rounding), `π` is admissible when
-//! `c(π) − c(π*) <= τ · Σ_{j : π(j) ≠ π*(j)} s_gt,j`, `τ =`
-//! [`AXIS_MATCH_REL_TOL`] — the slack is relative to the ground-truth extents of the axes that
-//! `π` moves, so that with a perfect size estimate two axes are interchangeable exactly when
-//! their extents differ by about `τ` or less, as in [`symmetry_group`]. Each admissible
-//! permutation brings its 4 sign variants (the proper ones). The rotation error is the smallest geodesic angle
-//! `∠(R_est·P, R_gt)` over those relabellings `P`. Consequences: a box with three clearly
-//! distinct extents is compared modulo its D2 symmetry (180° turns about its axes cost 0), a
-//! square cross-section or a cube also modulo the 90° turns (the swapped permutations tie in cost),
-//! and an estimate that got the size order wrong is *not* excused by relabelling. The size error
-//! ([`size_error_mm`]) uses the same relabelling: `|s_est,π(j) − s_gt,j|` for the `P` that attains
-//! the rotation error (ties: lower size cost).
+//! `c(π) − c(π*) <= τ · Σ_{j : π(j) ≠ π*(j)} s_gt,j`, `τ =` [`AXIS_MATCH_REL_TOL`]. The slack is
+//! relative to the ground-truth extents of the axes that `π` moves, so that with a perfect size
+//! estimate two axes `a`, `b` are interchangeable exactly when `2·|a − b| <= τ·(a + b)`, i.e.
+//! when their extents differ by about `τ` or less, as in [`symmetry_group`]. Each admissible
+//! permutation brings its 4 sign variants (the proper ones). The rotation error is the smallest
+//! geodesic angle `∠(R_est·P, R_gt)` over those relabellings `P`. Consequences: a box with three
+//! clearly distinct extents is compared modulo its D2 symmetry (180° turns about its axes cost
+//! 0), a square cross-section or a cube also modulo the 90° turns (the swapped permutations tie in
+//! cost), and an estimate that got the size order wrong is *not* excused by relabelling. The size
+//! error ([`size_error_mm`]) uses the same relabelling: `|s_est,π(j) − s_gt,j|` for the `P` that
+//! attains the rotation error (ties: lower size cost).
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use crate::OrientedBox;
 
-/// Relative tolerance of [`symmetry_group`] used by the evaluator: two extents are "equal" when
-/// they differ by at most 5 % of the larger one.
+/// Suggested relative tolerance for [`symmetry_group`]: two extents are "equal" when they differ
+/// by at most 5 % of the larger one.
 pub const DEFAULT_SYMMETRY_REL_TOL: f64 = 0.05;
 
 /// Admissibility tolerance `τ` of the axis matching in [`rotation_error_deg`] (module docs): a
