@@ -44,7 +44,7 @@ use std::time::Instant;
 use anybox_geom::{Intrinsics, OrientedBox};
 use anybox_io::bop::{DatasetWriter, GtRecordOut, ModelInfo, ViewRecord};
 use anybox_io::{DepthMap, IoError, Mask, RgbImage};
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use rand::Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -260,6 +260,9 @@ pub struct SynthView {
     pub boxes: Vec<SynthBox>,
     /// Camera name ("realsense-d435" | "kinect-like").
     pub camera: String,
+    /// Camera pose in the scene's world frame (mm; z up, floor at z = 0): maps camera-frame
+    /// points to world points. Ground truth for support-plane checks; not for estimators.
+    pub world_from_camera: Isometry3<f64>,
 }
 
 /// What [`write_dataset`] wrote.
@@ -522,6 +525,14 @@ fn render_view(
         depth_scale: 1.0,
         boxes,
         camera: camera_name(sc.camera).to_string(),
+        world_from_camera: {
+            // r_wc is orthonormal by construction (look-at frame).
+            let r_cw = Rotation3::from_matrix(&r_wc.transpose());
+            Isometry3::from_parts(
+                Translation3::from(-(r_wc.transpose() * t)),
+                UnitQuaternion::from_rotation_matrix(&r_cw),
+            )
+        },
     }
 }
 
@@ -583,6 +594,10 @@ fn write_scene(
         .collect();
     let n_views = views.len() as u32;
     let n_boxes = views.iter().map(|v| v.boxes.len() as u64).sum::<u64>();
+    let view_poses: Vec<(u32, Isometry3<f64>)> = views
+        .iter()
+        .map(|v| (v.im_id, v.world_from_camera))
+        .collect();
     let records: Vec<ViewRecord> = views
         .into_iter()
         .map(|v| ViewRecord {
@@ -607,6 +622,25 @@ fn write_scene(
         })
         .collect();
     writer.write_scene(s, &records)?;
+    let view_meta: BTreeMap<String, serde_json::Value> = view_poses
+        .iter()
+        .map(|(im, iso)| {
+            let fwd = iso.rotation * Vector3::z();
+            let m = iso.to_homogeneous();
+            let row_major: Vec<f64> = (0..4)
+                .flat_map(|r| (0..4).map(move |c| (r, c)))
+                .map(|(r, c)| m[(r, c)])
+                .collect();
+            (
+                im.to_string(),
+                serde_json::json!({
+                    "camera_height_mm": iso.translation.vector.z,
+                    "elevation_deg": (-fwd.z).clamp(-1.0, 1.0).asin().to_degrees(),
+                    "world_from_camera": row_major,
+                }),
+            )
+        })
+        .collect();
     let supports: BTreeMap<String, usize> = sc.boxes.iter().fold(BTreeMap::new(), |mut m, b| {
         *m.entry(b.support.to_string()).or_insert(0) += 1;
         m
@@ -620,6 +654,8 @@ fn write_scene(
         "boxes_in_scene": sc.boxes.len(),
         "supports": supports,
         "units": "mm; depth PNG value × depth_scale (1.0) = depth in mm",
+        "world_frame": "z up, floor at z = 0, mm; world_from_camera is a row-major 4x4",
+        "views": view_meta,
     });
     writer.write_scene_meta(s, &meta)?;
     Ok((n_views, n_boxes, sc.distractors))

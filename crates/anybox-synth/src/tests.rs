@@ -360,7 +360,13 @@ fn every_layout_gives_boxes_and_finite_values() {
             );
             assert!(v.depth.depth_mm.iter().all(|d| d.is_finite() && *d >= 0.0));
             assert!(v.depth.valid_count() > 320 * 240 / 2);
+            // The floor (world z = 0) lies below every box: box centres are above it.
             for b in &v.boxes {
+                let cw = v.world_from_camera * Point3::from(b.pose.center_mm);
+                assert!(
+                    cw.z > b.pose.size_mm.min() / 2.0 - 1e-6,
+                    "box centre below the floor"
+                );
                 assert!(b.visib_fract.is_finite() && b.visib_fract > 0.0 && b.visib_fract <= 1.0);
                 assert!(b.pose.center_mm.iter().all(|x| x.is_finite()));
                 assert!(
