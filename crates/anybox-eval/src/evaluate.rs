@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use rayon::prelude::*;
 
 use crate::ap::{voc_ap, ScoredMatch};
-use crate::geom_compat::{iou, match_axes, AddsReference};
+use crate::geom_compat::{iou, match_axes, AddsReference, IouMethod};
 use crate::report::{Figures, Report, SizeError};
 use crate::{EstEntry, EvalOptions, GtEntry};
 
@@ -213,7 +213,15 @@ fn evaluate_image(
             let k = e * ng + g;
             let dist = (a.center_mm - b.center_mm).norm();
             let reach = a.half_size_mm().norm() + b.half_size_mm().norm();
-            if dist < reach {
+            // Skip IoU where it is certainly 0: the exact IoU needs the bounding spheres to
+            // overlap, the AABB variant their bounding cubes; the legacy NOCS number is not
+            // geometric (it can be non-zero for disjoint boxes) and is always computed.
+            let may_overlap = match opts.iou {
+                IouMethod::Exact => dist < reach,
+                IouMethod::Aabb => (a.center_mm - b.center_mm).amax() < reach,
+                IouMethod::NocsLegacy => true,
+            };
+            if may_overlap {
                 iou_m[k] = iou(a, b, opts.iou);
             }
             cm_m[k] = dist / 10.0;
