@@ -51,6 +51,18 @@ use serde::{Deserialize, Serialize};
 
 pub use noise::{D435_BASELINE_MM, D435_DEPTH_FOCAL_PX, D435_SUBPIXEL_PX};
 
+/// Axial depth-noise σ (mm) of the RealSense D435-like camera at depth `z_mm` (Intel's RMS
+/// formula, see the `noise` module).
+pub fn realsense_sigma_mm(z_mm: f64) -> f64 {
+    noise::axial_sigma_mm(CameraKind::RealSenseD435, z_mm, 0.0)
+}
+
+/// Axial depth-noise σ (mm) of the Kinect-like camera at depth `z_mm` and incidence angle
+/// `theta_rad` (Nguyen, Izadi & Lovell 2012, see the `noise` module).
+pub fn kinect_like_sigma_mm(z_mm: f64, theta_rad: f64) -> f64 {
+    noise::axial_sigma_mm(CameraKind::KinectLike, z_mm, theta_rad)
+}
+
 use crate::render::CamObject;
 use crate::rng::{hash3, purpose, stream};
 use crate::scene::{CameraKind, Scene};
