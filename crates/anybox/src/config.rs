@@ -34,6 +34,8 @@ pub struct Config {
     pub context: ContextConfig,
     /// Base seed of every random choice (all stages are seeded; same seed + input = same output).
     pub seed: u64,
+    /// Zero-shot box detection without given masks (issue #4; `--masks detect`).
+    pub detect: crate::detect::DetectConfig,
 }
 
 impl Default for Config {
@@ -44,6 +46,7 @@ impl Default for Config {
             scale: ScaleConfig::default(),
             context: ContextConfig::default(),
             seed: 0,
+            detect: crate::detect::DetectConfig::default(),
         }
     }
 }

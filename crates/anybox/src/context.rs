@@ -62,6 +62,9 @@ pub struct ContextConfig {
     pub min_support_points: usize,
     /// Largest angle between the support plane's normal and the hidden axis, deg.
     pub plane_max_tilt_deg: f64,
+    /// The support's points must spread at least this much (std, mm) in both in-plane
+    /// directions: a thin strip (a shelf board's front edge, a box edge) is no support.
+    pub min_plane_spread_mm: f64,
     /// Visible faces within this distance along their common normal form one layer, mm.
     pub layer_tol_mm: f64,
 }
@@ -80,6 +83,7 @@ impl Default for ContextConfig {
             bin_mm: 8.0,
             min_support_points: 25,
             plane_max_tilt_deg: 15.0,
+            min_plane_spread_mm: 15.0,
             layer_tol_mm: 20.0,
         }
     }
@@ -271,9 +275,10 @@ pub fn find_support(
         let hi = cfg.min_hidden_mm + (pk as f64 + 2.0) * cfg.bin_mm;
         let sel: Vec<&(f64, Point3<f64>)> =
             ring.iter().filter(|(t, _)| *t >= lo && *t < hi).collect();
-        if let Some((normal, _)) = plane_normal(sel.iter().map(|(_, p)| p)) {
+        if let Some((normal, _, spread)) = plane_normal(sel.iter().map(|(_, p)| p)) {
             let c = normal.dot(&u).abs();
-            if c >= cos_tilt {
+            // A real support is a surface, not a thin strip (a shelf board's front edge).
+            if c >= cos_tilt && spread >= cfg.min_plane_spread_mm {
                 let mut ts: Vec<f64> = sel.iter().map(|(t, _)| *t).collect();
                 let off = median(&mut ts)?;
                 return Some(Support {
@@ -289,10 +294,11 @@ pub fn find_support(
     None
 }
 
-/// Least-squares plane normal of a point set (smallest principal axis); `None` below 3 points.
+/// Least-squares plane of a point set: `(unit normal, std across the plane, smaller std within
+/// the plane)`, mm; `None` below 3 points.
 fn plane_normal<'p>(
     pts: impl Iterator<Item = &'p Point3<f64>> + Clone,
-) -> Option<(Vector3<f64>, f64)> {
+) -> Option<(Vector3<f64>, f64, f64)> {
     let mut n = 0usize;
     let mut c = Vector3::zeros();
     for p in pts.clone() {
@@ -309,15 +315,17 @@ fn plane_normal<'p>(
         cov += d * d.transpose();
     }
     let eig = SymmetricEigen::new(cov / n as f64);
-    let mut k = 0;
-    for i in 1..3 {
-        if eig.eigenvalues[i] < eig.eigenvalues[k] {
-            k = i;
-        }
-    }
-    let normal = eig.eigenvectors.column(k).into_owned();
+    let mut idx = [0usize, 1, 2];
+    idx.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
+    let normal = eig.eigenvectors.column(idx[0]).into_owned();
     let nn = normal.norm();
-    (nn > 0.0).then(|| (normal / nn, eig.eigenvalues[k].max(0.0).sqrt()))
+    (nn > 0.0).then(|| {
+        (
+            normal / nn,
+            eig.eigenvalues[idx[0]].max(0.0).sqrt(),
+            eig.eigenvalues[idx[1]].max(0.0).sqrt(),
+        )
+    })
 }
 
 /// Inputs of the hidden-dimension inference for one instance.

@@ -16,13 +16,11 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use crate::config::Config;
-use crate::context::{
-    infer_hidden, observed_axes, share_layer_heights, ContextInputs, HiddenSource, LayerMember,
-};
+use crate::context::{infer_hidden, share_layer_heights, ContextInputs, HiddenSource, LayerMember};
 use crate::error::EstimateError;
 use crate::observation::{observe, Observation};
 use crate::pose::estimate_pose;
-use crate::scale::{scale_search, PoseSample, ScaleInputs, ScaleMode};
+use crate::scale::{observed_axes_mask, scale_search, PoseSample, ScaleInputs, ScaleMode};
 use crate::silhouette::mask_pixels;
 
 /// One estimated box.
@@ -111,7 +109,7 @@ fn stage_one(
     let mut score = out.score;
     let mut depth_penalty = out.depth_penalty;
     let mut pose_calls = out.pose_calls;
-    let observed = observed_axes(&pose, &obs.points_mm, &obs.normals, &cfg.context);
+    let observed = observed_axes_mask(&pose, &inputs, &cfg.context).0;
     let mut sources = observed.map(|o| {
         if o {
             HiddenSource::Observed
@@ -481,6 +479,11 @@ mod bench {
             ("es+ctx", Config::default()),
             ("pointfit", Config::anybox()),
             ("canonical", Config::paper().canonical()),
+            ("pf-nopolish", {
+                let mut c = Config::anybox();
+                c.scale.polish_iters = 0;
+                c
+            }),
         ];
         let only = std::env::var("BENCH_MODES").ok();
         for (name, cfg) in modes {
@@ -505,6 +508,25 @@ mod bench {
                     match r {
                         Ok(e) => {
                             let i = iou(&e.pose, &b.pose, IouMethod::Exact);
+                            if std::env::var("BENCH_VERBOSE").is_ok() && i < 0.9 {
+                                let mut gs: Vec<f64> = b.pose.size_mm.iter().copied().collect();
+                                let mut es: Vec<f64> = e.pose.size_mm.iter().copied().collect();
+                                gs.sort_by(f64::total_cmp);
+                                es.sort_by(f64::total_cmp);
+                                // Rotation error modulo relabelling: best axis match angles.
+                                let mut rot = 0.0f64;
+                                for a in 0..3 {
+                                    let m = (0..3)
+                                        .map(|c| e.pose.axis(c).dot(&b.pose.axis(a)).abs())
+                                        .fold(0.0, f64::max);
+                                    rot = rot.max(m.clamp(-1.0, 1.0).acos().to_degrees());
+                                }
+                                println!(
+                                    "  iou {i:.3} vis {:.2} od {} flags {:?} gt {:.0?} est {:.0?} dc {:.1} rot {:.1} sup {:?}",
+                                    b.visib_fract, od.count, e.observed_axes, gs, es,
+                                    (e.pose.center_mm - b.pose.center_mm).norm(), rot, b.support
+                                );
+                            }
                             ious_all.push(i);
                             if od.count == 3 {
                                 ious_full.push(i);

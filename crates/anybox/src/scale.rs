@@ -60,14 +60,21 @@ pub struct ScaleConfig {
     /// Canonical template `s₀`, mm (x, y, z): 300 × 200 × 150 mm, a mid-size shipping carton
     /// (the paper starts from "a canonical category template" without giving its size).
     pub template_mm: [f64; 3],
-    /// Binary-search lower bound ℓ per axis, mm (Algorithm 1). 20 mm: thinner boxes are rare.
+    /// Smallest size any mode may return per axis, mm: 20 mm, thinner boxes are rare.
     pub lower_mm: f64,
-    /// Binary-search upper bound u per axis, mm (Algorithm 1). 1200 mm: a pallet-sized carton.
+    /// Largest size any mode may return per axis, mm: 1200 mm, a pallet-sized carton.
     pub upper_mm: f64,
+    /// Algorithm 1's lower bound ℓ as a scale factor of the template (the paper's `s` starts
+    /// at (1, 1, 1) and ℓ, u are scale factors): 0.25, i.e. 75 × 50 × 37.5 mm.
+    pub lower_scale: f64,
+    /// Algorithm 1's upper bound u as a scale factor of the template: 2.5, i.e. 750 × 500 ×
+    /// 375 mm. (Bounds far from the template make the first midpoints wild guesses that the
+    /// scale-sensitive pose estimator cannot recover from.)
+    pub upper_scale: f64,
     /// τ_px: stop when the largest per-axis extent error is ≤ this, px (paper: 10 px).
     pub tau_px: f64,
     /// T_max: the most binary-search iterations (pose estimates), paper leaves it open; 12
-    /// halvings shrink the 1180 mm interval below 0.3 mm.
+    /// halvings shrink a (2.5 − 0.25) × 300 mm interval below 0.2 mm.
     pub max_iters: u32,
     /// τ_rot: the rotation change that counts as stable for early stopping, degrees (paper: "a
     /// small threshold"; 2°).
@@ -94,6 +101,12 @@ pub struct ScaleConfig {
     /// PointFit: added to each fitted extent, in pixels at the box's depth (half a pixel per
     /// side: depth pixels are centres, the true edge lies up to half a pixel further out).
     pub pointfit_edge_px: f64,
+    /// PointFit: measure each observed dimension on the mask pixels cast onto the visible face
+    /// planes (noise-free, pixel-accurate edges) instead of on the depth points themselves
+    /// (which depth noise at grazing faces inflates).
+    pub pointfit_mask_rays: bool,
+    /// PointFit with mask rays: percentile (each end, %) of the face coordinates taken as edges.
+    pub maskfit_percentile: f64,
     /// PointFit: silhouette polish iterations on the observed faces (0 = none).
     pub polish_iters: u32,
     /// PointFit: largest relative size change one polish step may make.
@@ -107,6 +120,8 @@ impl Default for ScaleConfig {
             template_mm: [300.0, 200.0, 150.0],
             lower_mm: 20.0,
             upper_mm: 1200.0,
+            lower_scale: 0.25,
+            upper_scale: 2.5,
             tau_px: 10.0,
             max_iters: 12,
             tau_rot_deg: 2.0,
@@ -117,7 +132,9 @@ impl Default for ScaleConfig {
             pointfit_iters: 3,
             pointfit_percentile: 0.5,
             pointfit_edge_px: 1.0,
-            polish_iters: 2,
+            pointfit_mask_rays: true,
+            maskfit_percentile: 0.1,
+            polish_iters: 0,
             polish_max_rel_step: 0.15,
         }
     }
@@ -513,8 +530,8 @@ fn binary_search<P: PoseEstimator>(
 ) -> Result<ScaleOutcome, P::Error> {
     let mut scratch = Vec::new();
     let mut s = clamp_size(&Vector3::from(cfg.template_mm), cfg);
-    let mut lo = Vector3::repeat(cfg.lower_mm);
-    let mut hi = Vector3::repeat(cfg.upper_mm);
+    let mut lo = clamp_size(&(s * cfg.lower_scale), cfg);
+    let mut hi = clamp_size(&(s * cfg.upper_scale), cfg);
     let mut prior: Option<OrientedBox> = None;
     let mut last: Option<PoseSample> = None;
     let mut pose_calls = 0u32;
@@ -675,6 +692,125 @@ pub fn point_extents_mm(
     out
 }
 
+/// Mask pixels cast onto the camera-facing face planes (see [`mask_ray_fit`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MaskRayFit {
+    /// Mask pixels entering the box through the face with each normal axis.
+    pub face_pixels: [usize; 3],
+    /// Mask pixels in total.
+    pub total: usize,
+    /// Observed extent along each axis, mm (faces spanning it with enough pixels).
+    pub extents_mm: [Option<f64>; 3],
+}
+
+/// Casts the mask pixels onto the camera-facing face planes of `pose`.
+///
+/// Planes: the three camera-facing faces of `pose`; a face with at least 10 assigned points
+/// (`face`, from the normals) takes its offset from the median of its points (robust to the
+/// pose estimator's compromise under a wrong size). Each mask pixel's ray enters the convex box
+/// through the plane it meets last (slab rule), which gives its face (as the evaluator counts
+/// faces) and its noise-free 3D point. The extent along axis `a` is the robust range of those
+/// points' `a` coordinates over the faces spanning `a` that pass the observed-face rule, plus one
+/// pixel's footprint (pixel centres lie up to half a pixel inside each edge).
+pub fn mask_ray_fit(
+    pose: &OrientedBox,
+    inputs: &ScaleInputs<'_>,
+    face: &[Option<usize>],
+    faces: [bool; 3],
+    pct: f64,
+) -> MaskRayFit {
+    let k = inputs.intrinsics;
+    let mut normals = [Vector3::zeros(); 3];
+    let mut offs = [0.0f64; 3];
+    let h = pose.half_size_mm();
+    for b in 0..3 {
+        let ax = pose.axis(b);
+        let n = if ax.dot(&pose.center_mm) > 0.0 {
+            -ax
+        } else {
+            ax
+        };
+        normals[b] = n;
+        offs[b] = n.dot(&pose.center_mm) + h[b];
+        let mut v: Vec<f64> = inputs
+            .points_mm
+            .iter()
+            .zip(face)
+            .filter(|(_, f)| **f == Some(b))
+            .map(|(p, _)| n.dot(&p.coords))
+            .collect();
+        if faces[b] && v.len() >= 10 {
+            if let Some(m) = percentile(&mut v, 50.0) {
+                offs[b] = m;
+            }
+        }
+    }
+    let rt = pose.rotation.inverse();
+    // Per pixel: (face, local point).
+    let mut hits: Vec<(usize, Vector3<f64>)> = Vec::with_capacity(inputs.mask_pixels.len());
+    let mut face_pixels = [0usize; 3];
+    for px in inputs.mask_pixels {
+        let r = k.ray(f64::from(px[0]), f64::from(px[1]));
+        let mut best_t = f64::NEG_INFINITY;
+        let mut best_b = usize::MAX;
+        for b in 0..3 {
+            let den = normals[b].dot(&r);
+            if den < -1e-9 {
+                let t = offs[b] / den;
+                if t > best_t {
+                    best_t = t;
+                    best_b = b;
+                }
+            }
+        }
+        if best_b == usize::MAX || !(best_t > 0.0) {
+            continue;
+        }
+        face_pixels[best_b] += 1;
+        if !faces[best_b] {
+            continue;
+        }
+        hits.push((best_b, rt * (r * best_t - pose.center_mm)));
+    }
+    let total = inputs.mask_pixels.len();
+    let dirs = axis_directions(pose, k);
+    let mm_per_px = pose.center_mm.z.max(1.0) / (0.5 * (k.fx + k.fy));
+    let mut extents_mm = [None; 3];
+    let mut buf = Vec::with_capacity(hits.len());
+    for a in 0..3 {
+        buf.clear();
+        buf.extend(hits.iter().filter(|(b, _)| *b != a).map(|(_, l)| l[a]));
+        if buf.len() < 10 {
+            continue;
+        }
+        let lo = percentile(&mut buf, pct);
+        let hi = percentile(&mut buf, 100.0 - pct);
+        if let (Some(lo), Some(hi)) = (lo, hi) {
+            // One pixel's footprint along axis a, capped for axes seen nearly end-on.
+            let foot = dirs
+                .map(|d| 1.0 / d.px_per_mm[a].max(1e-9))
+                .unwrap_or(mm_per_px)
+                .min(3.0 * mm_per_px);
+            extents_mm[a] = Some(hi - lo + foot);
+        }
+    }
+    MaskRayFit {
+        face_pixels,
+        total,
+        extents_mm,
+    }
+}
+
+/// Observed axes (and observed faces by normal axis) of a posed box from its points.
+pub fn observed_axes_mask(
+    pose: &OrientedBox,
+    inputs: &ScaleInputs<'_>,
+    ctx_cfg: &ContextConfig,
+) -> ([bool; 3], [bool; 3]) {
+    let (counts, _) = face_point_counts(pose, inputs.points_mm, inputs.normals, ctx_cfg);
+    observed_axes_from_counts(&counts, ctx_cfg)
+}
+
 /// The 4 corners of each face, box-frame, for a given size; face `(axis, sign)`.
 fn face_corners(size: &Vector3<f64>, axis: usize, sign: f64) -> [Vector3<f64>; 4] {
     let h = size * 0.5;
@@ -735,14 +871,19 @@ fn point_fit<P: PoseEstimator>(
         let (obs_axes, obs_faces) = observed_axes_from_counts(&counts, ctx_cfg);
         observed = obs_axes;
         faces = obs_faces;
-        let ext = point_extents_mm(&pose, inputs.points_mm, &face, cfg.pointfit_percentile);
         let mm_per_px =
             pose.center_mm.z.max(1.0) / (0.5 * (inputs.intrinsics.fx + inputs.intrinsics.fy));
+        let ext = if cfg.pointfit_mask_rays {
+            mask_ray_fit(&pose, inputs, &face, faces, cfg.maskfit_percentile).extents_mm
+        } else {
+            point_extents_mm(&pose, inputs.points_mm, &face, cfg.pointfit_percentile)
+                .map(|e| e.map(|e| e + cfg.pointfit_edge_px * mm_per_px))
+        };
         let mut new = size;
         for a in 0..3 {
             if observed[a] {
                 if let Some(e) = ext[a] {
-                    new[a] = e + cfg.pointfit_edge_px * mm_per_px;
+                    new[a] = e;
                 }
             }
         }
@@ -866,9 +1007,7 @@ fn point_fit<P: PoseEstimator>(
         pose_calls += 1;
     }
     // Report observed axes for the final pose.
-    let (counts, _) = face_point_counts(&sample.pose, inputs.points_mm, inputs.normals, ctx_cfg);
-    let (obs_axes, _) = observed_axes_from_counts(&counts, ctx_cfg);
-    observed = obs_axes;
+    observed = observed_axes_mask(&sample.pose, inputs, ctx_cfg).0;
     Ok(ScaleOutcome {
         pose: sample.pose,
         score: sample.score,
