@@ -88,6 +88,9 @@ pub struct FacePlane {
     pub offset_mm: f64,
     /// Indices into `Observation::points_mm` of the plane's inliers (within the subsample).
     pub inliers: Vec<usize>,
+    /// Robust residual scale (1.4826 · median |distance|) of the normal cluster's members to the
+    /// refit plane, mm: an estimate of the depth noise.
+    pub noise_mm: f64,
 }
 
 /// Dominant face planes: normal clusters refined by RANSAC + PCA, largest first.
@@ -223,10 +226,19 @@ fn fit_plane(
     if n.dot(&mean_normal) < 0.0 {
         n = -n;
     }
+    let offset_mm = n.dot(&mean);
+    let noise_mm = 1.4826
+        * crate::observation::median(
+            members
+                .iter()
+                .map(|&j| (n.dot(&pts[j].coords) - offset_mm).abs())
+                .collect(),
+        );
     Some(FacePlane {
         normal: n,
-        offset_mm: n.dot(&mean),
+        offset_mm,
         inliers,
+        noise_mm,
     })
 }
 
@@ -308,10 +320,37 @@ pub fn min_area_rect_dir(pts: &[Vector2<f64>]) -> Option<Vector2<f64>> {
     best.map(|(_, d)| d)
 }
 
+/// Size-independent analysis of an observation: candidate frames and a depth-noise estimate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameSet {
+    /// Candidate frames (see [`candidate_frames`]).
+    pub frames: Vec<Matrix3<f64>>,
+    /// Depth noise estimated from the largest face plane's residuals, mm (0 if no plane).
+    pub noise_mm: f64,
+}
+
+/// Frames and noise estimate (see [`candidate_frames`] and [`FacePlane::noise_mm`]).
+pub fn analyse(obs: &Observation, cfg: &HypothesisConfig) -> FrameSet {
+    let planes = face_planes(obs, cfg);
+    let noise_mm = planes.first().map_or(0.0, |p| p.noise_mm);
+    FrameSet {
+        frames: frames_from_planes(obs, &planes, cfg),
+        noise_mm,
+    }
+}
+
 /// Candidate frames (columns = orthonormal right-handed axes, camera frame) from the geometry,
 /// de-duplicated modulo axis relabeling.
 pub fn candidate_frames(obs: &Observation, cfg: &HypothesisConfig) -> Vec<Matrix3<f64>> {
     let planes = face_planes(obs, cfg);
+    frames_from_planes(obs, &planes, cfg)
+}
+
+fn frames_from_planes(
+    obs: &Observation,
+    planes: &[FacePlane],
+    cfg: &HypothesisConfig,
+) -> Vec<Matrix3<f64>> {
     let mut frames: Vec<Matrix3<f64>> = Vec::new();
     let sin_tol = cfg.perpendicular_tol_deg.to_radians().sin();
     for i in 0..planes.len() {

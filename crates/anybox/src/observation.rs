@@ -29,7 +29,7 @@ use std::sync::OnceLock;
 
 use crate::depth_filter::CellMinDepth;
 use crate::error::EstimateError;
-use crate::hypotheses::HypothesisConfig;
+use crate::hypotheses::{FrameSet, HypothesisConfig};
 
 /// Parameters of [`observe`].
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -158,8 +158,8 @@ pub struct Observation {
 pub(crate) struct ObsCache {
     /// `(cell_px, region_margin bits, cells)` of the depth map this observation was built from.
     pub(crate) cells: OnceLock<(u32, u64, CellMinDepth)>,
-    /// `(config, frames)` from `hypotheses::candidate_frames`.
-    pub(crate) frames: OnceLock<(HypothesisConfig, Vec<Matrix3<f64>>)>,
+    /// `(config, frames + noise)` from `hypotheses::analyse`.
+    pub(crate) frames: OnceLock<(HypothesisConfig, FrameSet)>,
 }
 
 impl Observation {

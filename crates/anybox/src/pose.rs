@@ -26,9 +26,13 @@ use nalgebra::{Matrix3, Point3, Rotation3, Vector2, Vector3};
 
 use crate::depth_filter::{depth_penalty, CellMinDepth, DepthFilterConfig, SurfaceSamples};
 use crate::error::EstimateError;
-use crate::hypotheses::{candidate_frames, convex_hull_2d, generate, HypothesisConfig};
+use crate::hypotheses::{
+    analyse, convex_hull_2d, generate, robust_extent, FrameSet, HypothesisConfig,
+};
 use crate::observation::Observation;
-use crate::refine::{closest_on_faces, refine_pose, visible_faces, RefineConfig};
+use crate::refine::{
+    align_translation, closest_on_faces, inlier_stats, refine_pose, visible_faces, RefineConfig,
+};
 
 /// How the cheap pre-refinement score measures point-to-template distance.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -58,8 +62,18 @@ pub struct PoseConfig {
     pub coarse_points: usize,
     /// Truncation of the coarse point distance, mm. Default 20 mm.
     pub coarse_trunc_mm: f64,
+    /// Translation-only alignment steps applied to every hypothesis before the coarse score.
+    /// Default 2; 0 scores hypotheses where the placement rule put them.
+    pub coarse_align_iters: usize,
     /// Hypotheses refined by ICP. Default 4.
     pub top_k: usize,
+    /// Axes with `|axis · viewdir|` below this get placement variants (see
+    /// [`ScoringContext::placement_variants`]). Default 0.35 (faces > 70° from the view ray).
+    pub variant_cos: f64,
+    /// Thresholds follow the depth noise estimated from the face planes (σ̂): the coarse
+    /// truncation is at least `noise_scale · 3σ̂`, the Huber threshold `1.5σ̂`, the inlier residual
+    /// `2σ̂`, the correspondence cut `6σ̂`. Default 1; 0 disables the adaptation.
+    pub noise_scale: f64,
     /// With a prior: a result within this angle of the prior (modulo the box's 180° symmetries)
     /// keeps the prior's axis assignment, degrees. Default 20.
     pub prior_gate_deg: f64,
@@ -80,7 +94,10 @@ impl Default for PoseConfig {
             coarse: CoarseScore::VisibleSurface,
             coarse_points: 200,
             coarse_trunc_mm: 20.0,
+            coarse_align_iters: 2,
             top_k: 4,
+            variant_cos: 0.35,
+            noise_scale: 1.0,
             prior_gate_deg: 20.0,
             prior_switch_margin: 0.1,
             region_margin: 1.0,
@@ -124,7 +141,7 @@ pub struct ScoringContext<'a> {
     intrinsics: &'a Intrinsics,
     cells: Cow<'a, CellMinDepth>,
     samples: SurfaceSamples,
-    coarse_idx: Vec<usize>,
+    coarse_pts: Vec<Point3<f64>>,
 }
 
 impl<'a> ScoringContext<'a> {
@@ -159,17 +176,19 @@ impl<'a> ScoringContext<'a> {
             SurfaceSamples::new(size_mm, cfg.depth_filter.n_samples, cfg.depth_filter.seed);
         let sub = &obs.subsample;
         let m = cfg.coarse_points.max(1);
-        let coarse_idx = if sub.len() <= m {
-            sub.clone()
+        let coarse_pts = if sub.len() <= m {
+            sub.iter().map(|&i| obs.points_mm[i]).collect()
         } else {
-            (0..m).map(|j| sub[j * sub.len() / m]).collect()
+            (0..m)
+                .map(|j| obs.points_mm[sub[j * sub.len() / m]])
+                .collect()
         };
         Self {
             obs,
             intrinsics,
             cells,
             samples,
-            coarse_idx,
+            coarse_pts,
         }
     }
 
@@ -192,18 +211,18 @@ impl<'a> ScoringContext<'a> {
         let rt = pose.rotation.matrix().transpose();
         let h = pose.half_size_mm();
         let mut s = 0.0;
-        for &i in &self.coarse_idx {
-            let l = rt * (self.obs.points_mm[i].coords - pose.center_mm);
+        for p in &self.coarse_pts {
+            let l = rt * (p.coords - pose.center_mm);
             let d = match closest_on_faces(&l, &h, faces) {
                 Some((q, _, _)) => (l - q).norm(),
                 None => trunc,
             };
             s += d.min(trunc);
         }
-        if self.coarse_idx.is_empty() {
+        if self.coarse_pts.is_empty() {
             1.0
         } else {
-            s / (trunc * self.coarse_idx.len() as f64)
+            s / (trunc * self.coarse_pts.len() as f64)
         }
     }
 
@@ -219,10 +238,19 @@ impl<'a> ScoringContext<'a> {
     }
 
     /// Scores and sorts hypotheses by key, best first (stable: ties keep the input order).
+    /// Each hypothesis is first translation-aligned (`cfg.coarse_align_iters` steps) to the
+    /// coarse points; the ranked pose is the aligned one.
     pub fn rank(&self, hyps: &[OrientedBox], cfg: &PoseConfig) -> Vec<RankedHypothesis> {
         let mut out: Vec<RankedHypothesis> = hyps
             .iter()
-            .map(|h| {
+            .map(|h0| {
+                let h = &align_translation(
+                    h0,
+                    &self.coarse_pts,
+                    cfg.coarse_align_iters,
+                    cfg.refine.huber_mm,
+                    cfg.refine.max_corr_mm,
+                );
                 let coarse = self.coarse(h, cfg);
                 let penalty = self.penalty(h, cfg);
                 let key = if cfg.depth_filter.enabled {
@@ -232,6 +260,7 @@ impl<'a> ScoringContext<'a> {
                 };
                 RankedHypothesis {
                     pose: *h,
+
                     coarse,
                     penalty,
                     key,
@@ -246,6 +275,55 @@ impl<'a> ScoringContext<'a> {
     /// IoU of the pose's silhouette (convex hull of the projected corners) with the observed mask.
     pub fn silhouette_iou(&self, pose: &OrientedBox) -> f64 {
         silhouette_iou(pose, self.obs, self.intrinsics)
+    }
+
+    /// Cheap confidence without ICP: coarse-point inlier fraction × silhouette IoU ×
+    /// (1 − penalty) (the last factor only with the filter enabled).
+    pub fn quick_score(&self, pose: &OrientedBox, cfg: &PoseConfig) -> f64 {
+        let (inl, _) = inlier_stats(pose, &self.coarse_pts, &cfg.refine);
+        let mut s = inl * self.silhouette_iou(pose);
+        if cfg.depth_filter.enabled {
+            s *= 1.0 - self.penalty(pose, cfg);
+        }
+        s
+    }
+
+    /// Placement variants along axes seen nearly edge-on (`|axis · viewdir| < variant_cos`)
+    /// whose observed extent falls short of the template size (occlusion or a wrong size): the
+    /// box anchored at either end of the observed extent as well as where it is. The depth filter
+    /// and the silhouette decide between them (a box overhanging the background is in front of
+    /// it; one overhanging an occluder is behind it).
+    pub fn placement_variants(&self, pose: &OrientedBox, cfg: &PoseConfig) -> Vec<OrientedBox> {
+        let view = self.obs.view_dir();
+        let mut scratch = Vec::with_capacity(self.obs.subsample.len());
+        let mut shifts: Vec<Vec<f64>> = Vec::with_capacity(3);
+        for k in 0..3 {
+            let a = pose.axis(k);
+            let mut opts = vec![0.0];
+            if a.dot(&view).abs() < cfg.variant_cos {
+                let (lo, hi) =
+                    robust_extent(self.obs, &a, cfg.hypotheses.extent_trim, &mut scratch);
+                let s = pose.size_mm[k];
+                let short = s - (hi - lo);
+                if short > (0.05 * s).max(10.0) {
+                    let c = a.dot(&pose.center_mm);
+                    opts.push(lo + 0.5 * s - c);
+                    opts.push(hi - 0.5 * s - c);
+                }
+            }
+            shifts.push(opts);
+        }
+        let mut out = Vec::new();
+        for &dx in &shifts[0] {
+            for &dy in &shifts[1] {
+                for &dz in &shifts[2] {
+                    let mut b = *pose;
+                    b.center_mm += pose.rotation * Vector3::new(dx, dy, dz);
+                    out.push(b);
+                }
+            }
+        }
+        out
     }
 }
 
@@ -337,6 +415,19 @@ pub fn closest_variant(pose: &OrientedBox, reference: &Rotation3<f64>) -> Orient
     best
 }
 
+/// `cfg` with its distance thresholds raised to the estimated depth noise (`noise_scale`).
+fn adapt_to_noise(cfg: &PoseConfig, noise_mm: f64) -> PoseConfig {
+    let mut c = cfg.clone();
+    let s = noise_mm * cfg.noise_scale;
+    if s.is_finite() && s > 0.0 {
+        c.coarse_trunc_mm = c.coarse_trunc_mm.max(3.0 * s);
+        c.refine.huber_mm = c.refine.huber_mm.max(1.5 * s);
+        c.refine.inlier_abs_mm = c.refine.inlier_abs_mm.max(2.0 * s);
+        c.refine.max_corr_mm = c.refine.max_corr_mm.max(6.0 * s);
+    }
+    c
+}
+
 /// The paper's PoseEstimate(C(s)) for a cuboid template of size `size_mm` (module docs).
 ///
 /// The size-independent parts (depth cells, hypothesis frames) are cached in `obs` on the first
@@ -374,18 +465,18 @@ pub fn estimate_pose(
         p.center_mm.iter().all(|v| v.is_finite())
             && p.rotation.matrix().iter().all(|v| v.is_finite())
     });
-    let cached = obs.cache.frames.get_or_init(|| {
-        (
-            cfg.hypotheses.clone(),
-            candidate_frames(obs, &cfg.hypotheses),
-        )
-    });
-    let frames: Cow<[Matrix3<f64>]> = if cached.0 == cfg.hypotheses {
+    let cached = obs
+        .cache
+        .frames
+        .get_or_init(|| (cfg.hypotheses.clone(), analyse(obs, &cfg.hypotheses)));
+    let fs: Cow<FrameSet> = if cached.0 == cfg.hypotheses {
         Cow::Borrowed(&cached.1)
     } else {
-        Cow::Owned(candidate_frames(obs, &cfg.hypotheses))
+        Cow::Owned(analyse(obs, &cfg.hypotheses))
     };
-    let hyps = generate(obs, &frames, size_mm, prior, &cfg.hypotheses);
+    let adapted = adapt_to_noise(cfg, fs.noise_mm);
+    let cfg = &adapted;
+    let hyps = generate(obs, &fs.frames, size_mm, prior, &cfg.hypotheses);
     let n_hypotheses = hyps.len();
     let ctx = ScoringContext::new(obs, depth, intrinsics, size_mm, cfg);
     let ranked = ctx.rank(&hyps, cfg);
@@ -411,7 +502,21 @@ pub fn estimate_pose(
     }
     let mut best: Option<(f64, PoseEstimate)> = None;
     for r in chosen {
-        let refined = refine_pose(&r.pose, &pts, &cfg.refine);
+        // Best placement variant (occlusion / wrong size along edge-on axes), then ICP.
+        let variants = ctx.placement_variants(&r.pose, cfg);
+        let start = if variants.len() > 1 {
+            variants
+                .iter()
+                .map(|v| (ctx.quick_score(v, cfg), v))
+                .fold(None, |acc: Option<(f64, &OrientedBox)>, (s, v)| match acc {
+                    Some((bs, _)) if bs >= s => acc,
+                    _ => Some((s, v)),
+                })
+                .map_or(r.pose, |(_, v)| *v)
+        } else {
+            r.pose
+        };
+        let refined = refine_pose(&start, &pts, &cfg.refine);
         let pose = refined.pose;
         let iou = ctx.silhouette_iou(&pose);
         let pen = ctx.penalty(&pose, cfg);

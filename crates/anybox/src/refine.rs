@@ -210,6 +210,73 @@ pub fn refine_pose(init: &OrientedBox, points: &[Point3<f64>], cfg: &RefineConfi
     }
 }
 
+/// Translation-only robust alignment of `points` to the visible surface of `pose` (`iterations`
+/// Gauss–Newton steps on the 3×3 normal equations, Huber weights, correspondences beyond
+/// `max_corr_mm` ignored). Cheap; used to place every hypothesis before the coarse ranking so that
+/// a placement bias (noisy face extremes) does not decide the ranking.
+pub fn align_translation(
+    pose: &OrientedBox,
+    points: &[Point3<f64>],
+    iterations: usize,
+    huber_mm: f64,
+    max_corr_mm: f64,
+) -> OrientedBox {
+    let mut pose = *pose;
+    let h = pose.half_size_mm();
+    let r = *pose.rotation.matrix();
+    let rt = r.transpose();
+    let (faces, nf) = visible_faces(&pose);
+    let faces = &faces[..nf];
+    for _ in 0..iterations {
+        let mut hm = nalgebra::Matrix3::<f64>::zeros();
+        let mut g = Vector3::<f64>::zeros();
+        let mut used = 0;
+        for p in points {
+            let l = rt * (p.coords - pose.center_mm);
+            let Some((q, n_local, inside)) = closest_on_faces(&l, &h, faces) else {
+                continue;
+            };
+            let diff = l - q;
+            let (e, n_loc) = if inside {
+                (diff.dot(&n_local), n_local)
+            } else {
+                let d = diff.norm();
+                if d < 1e-12 {
+                    continue;
+                }
+                (d, diff / d)
+            };
+            if e.abs() > max_corr_mm {
+                continue;
+            }
+            let w = if e.abs() <= huber_mm {
+                1.0
+            } else {
+                huber_mm / e.abs()
+            };
+            hm += n_loc * n_loc.transpose() * w;
+            g += n_loc * (w * e);
+            used += 1;
+        }
+        if used < 3 {
+            break;
+        }
+        let damp = 1e-3 * hm.trace().max(1e-9) / 3.0;
+        for i in 0..3 {
+            hm[(i, i)] += damp;
+        }
+        let Some(t_local) = hm.cholesky().map(|c| c.solve(&g)) else {
+            break;
+        };
+        if !t_local.iter().all(|v| v.is_finite()) {
+            break;
+        }
+        // Residuals point from the surface to the points: move the box along them.
+        pose.center_mm += r * t_local;
+    }
+    pose
+}
+
 /// Inlier fraction and inlier mean residual of `points` against the visible surface of `pose`.
 pub fn inlier_stats(pose: &OrientedBox, points: &[Point3<f64>], cfg: &RefineConfig) -> (f64, f64) {
     if points.is_empty() {

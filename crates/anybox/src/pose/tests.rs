@@ -185,8 +185,11 @@ fn depth_filter_rejects_hovering_hypothesis() {
     // The true hypothesis slightly off (1 mm) so that without the filter the hover wins.
     let mut near_truth = truth;
     near_truth.center_mm.z += 1.0;
+    // Symmetric point matching without visibility reasoning and without pre-alignment: what a
+    // learned matcher sees.
     let mut cfg = PoseConfig {
         coarse: CoarseScore::AllFaces,
+        coarse_align_iters: 0,
         ..PoseConfig::default()
     };
     let ctx = ScoringContext::new(&obs, &depth, &k, &size, &cfg);
@@ -363,9 +366,9 @@ fn report_stage_timing() {
         observe(&depth, &k, &masks[0], &oc).unwrap();
     });
     time("frames", &mut || {
-        candidate_frames(&obs, &cfg.hypotheses);
+        crate::hypotheses::candidate_frames(&obs, &cfg.hypotheses);
     });
-    let frames = candidate_frames(&obs, &cfg.hypotheses);
+    let frames = crate::hypotheses::candidate_frames(&obs, &cfg.hypotheses);
     time("generate", &mut || {
         generate(&obs, &frames, &truth.size_mm, None, &cfg.hypotheses);
     });
@@ -405,4 +408,199 @@ fn profile_observe() {
         "observe {:.1} µs CPU",
         (thread_cpu_ns() - c0) as f64 / 300.0 / 1e3
     );
+}
+
+/// A box on a table seen from `pitch_deg` above the horizon (same geometry as the pipeline's
+/// table test), with the table plane.
+fn table_box(
+    size: Vector3<f64>,
+    yaw: f64,
+    pitch_deg: f64,
+    dist_mm: f64,
+) -> (OrientedBox, (Vector3<f64>, f64)) {
+    let p = pitch_deg.to_radians();
+    let up = Vector3::new(0.0, -p.cos(), -p.sin());
+    let hit = Vector3::new(0.0, 0.0, dist_mm);
+    let fwd = (Vector3::z() - up * up.dot(&Vector3::z())).normalize();
+    let right = fwd.cross(&up).normalize();
+    let bx = right * yaw.cos() + fwd * yaw.sin();
+    let by = up.cross(&bx);
+    let rot = Rotation3::from_basis_unchecked(&[bx, by, up]);
+    let center = hit + up * (size.z / 2.0);
+    (
+        OrientedBox::new(rot, center, size).unwrap(),
+        (up, up.dot(&hit)),
+    )
+}
+
+/// Diagnostic (report only): wrong-size templates on a table scene.
+#[test]
+#[ignore]
+fn report_table_scene() {
+    let k = cam();
+    let size = Vector3::new(240.0, 160.0, 110.0);
+    for (yaw, pitch) in [(0.5, 40.0), (1.0, 30.0), (0.3, 60.0), (0.3, 90.0)] {
+        let (gt, plane) = table_box(size, yaw, pitch, 900.0);
+        let (depth, masks) = render(&[gt], Some(plane), 0.0, 0);
+        let obs = observe(&depth, &k, &masks[0], &ObservationConfig::default()).unwrap();
+        let mut prior: Option<OrientedBox> = None;
+        for s in [
+            Vector3::new(300.0, 200.0, 150.0),
+            Vector3::new(150.0, 100.0, 75.0),
+            Vector3::new(225.0, 150.0, 112.0),
+            Vector3::new(262.0, 175.0, 131.0),
+            size,
+        ] {
+            let e = estimate_pose(&obs, &depth, &k, &s, prior.as_ref(), &PoseConfig::default())
+                .unwrap();
+            // Which template axis went to which true axis?
+            let assign: Vec<usize> = (0..3)
+                .map(|a| {
+                    (0..3)
+                        .max_by(|&i, &j| {
+                            e.pose
+                                .axis(a)
+                                .dot(&gt.axis(i))
+                                .abs()
+                                .total_cmp(&e.pose.axis(a).dot(&gt.axis(j)).abs())
+                        })
+                        .unwrap()
+                })
+                .collect();
+            println!(
+                "yaw {yaw} pitch {pitch} size {:?}: frame err {:.2}° assign {assign:?} centre err {:.1} score {:.3} iou {:.3} inl {:.3} pen {:.3}",
+                s.as_slice(), frame_err_deg(&e.pose, &gt), (e.pose.center_mm - gt.center_mm).norm(), e.score, e.silhouette_iou, e.inlier_fraction, e.depth_penalty
+            );
+            prior = Some(e.pose);
+        }
+    }
+}
+
+/// Per-box errors of `estimate_pose` with the true size on synthetic views:
+/// `(layout, visib, rot_err_deg, centre_err_mm, score)`.
+fn synth_errors(
+    noise: anybox_synth::NoiseModel,
+    layout: anybox_synth::Layout,
+    views: u32,
+    cfg: &PoseConfig,
+) -> Vec<(String, f64, f64, f64, f64)> {
+    let sc = anybox_synth::SynthConfig {
+        layout,
+        noise,
+        scenes: views,
+        views: 1,
+        ..Default::default()
+    };
+    let mut out = Vec::new();
+    for s in 0..views {
+        let v = anybox_synth::generate_view(&sc, s, 0);
+        for b in &v.boxes {
+            if b.visib_fract < 0.5 || b.px_count_valid < 400 {
+                continue;
+            }
+            let Ok(obs) = observe(
+                &v.depth,
+                &v.intrinsics,
+                &b.mask_visib,
+                &ObservationConfig::default(),
+            ) else {
+                continue;
+            };
+            let e =
+                estimate_pose(&obs, &v.depth, &v.intrinsics, &b.pose.size_mm, None, cfg).unwrap();
+            out.push((
+                format!("{:?}", v.layout),
+                b.visib_fract,
+                anybox_geom::symmetry::rotation_error_deg(&e.pose, &b.pose),
+                (e.pose.center_mm - b.pose.center_mm).norm(),
+                e.score,
+            ));
+        }
+    }
+    out
+}
+
+/// Diagnostic (report only): synthetic scenes, true size.
+#[test]
+#[ignore]
+fn report_synth() {
+    use anybox_synth::{Layout, NoiseModel};
+    for noise in [NoiseModel::None, NoiseModel::Realistic] {
+        for layout in [Layout::Pallet, Layout::Table, Layout::Shelf] {
+            let e = synth_errors(noise, layout, 3, &PoseConfig::default());
+            let n = e.len();
+            let ok = e.iter().filter(|x| x.2 < 5.0 && x.3 < 10.0).count();
+            let mut r: Vec<f64> = e.iter().map(|x| x.2).collect();
+            let mut t: Vec<f64> = e.iter().map(|x| x.3).collect();
+            r.sort_by(f64::total_cmp);
+            t.sort_by(f64::total_cmp);
+            println!(
+                "{noise:?} {layout:?}: n {n}, within 5°/10 mm {ok}, median rot {:.2}° trans {:.1} mm, p90 rot {:.1}° trans {:.1} mm",
+                r.get(n / 2).unwrap_or(&0.0), t.get(n / 2).unwrap_or(&0.0), r.get(n * 9 / 10).unwrap_or(&0.0), t.get(n * 9 / 10).unwrap_or(&0.0)
+            );
+            for x in e.iter().filter(|x| x.2 >= 5.0 || x.3 >= 10.0) {
+                println!(
+                    "   bad: visib {:.2} rot {:.1}° trans {:.1} mm score {:.3}",
+                    x.1, x.2, x.3, x.4
+                );
+            }
+        }
+    }
+}
+
+/// Diagnostic (report only): generation vs ranking failures on noisy pallets.
+#[test]
+#[ignore]
+fn report_synth_diagnose() {
+    use anybox_synth::{Layout, NoiseModel};
+    let cfg = PoseConfig::default();
+    let layout = match std::env::var("LAYOUT").as_deref() {
+        Ok("shelf") => Layout::Shelf,
+        Ok("table") => Layout::Table,
+        _ => Layout::Pallet,
+    };
+    let sc = anybox_synth::SynthConfig {
+        layout,
+        noise: NoiseModel::Realistic,
+        scenes: 3,
+        views: 1,
+        ..Default::default()
+    };
+    for s in 0..3 {
+        let v = anybox_synth::generate_view(&sc, s, 0);
+        for b in &v.boxes {
+            if b.visib_fract < 0.5 || b.px_count_valid < 400 {
+                continue;
+            }
+            let Ok(obs) = observe(
+                &v.depth,
+                &v.intrinsics,
+                &b.mask_visib,
+                &ObservationConfig::default(),
+            ) else {
+                continue;
+            };
+            let k = v.intrinsics;
+            let e = estimate_pose(&obs, &v.depth, &k, &b.pose.size_mm, None, &cfg).unwrap();
+            let frames = crate::hypotheses::candidate_frames(&obs, &cfg.hypotheses);
+            let best_frame = frames
+                .iter()
+                .map(|f| crate::hypotheses::frame_distance_deg(f, b.pose.rotation.matrix()))
+                .fold(f64::INFINITY, f64::min);
+            let ctx = ScoringContext::new(&obs, &v.depth, &k, &b.pose.size_mm, &cfg);
+            let pts: Vec<Point3<f64>> = obs.subsample.iter().map(|&i| obs.points_mm[i]).collect();
+            let (inl, _) = crate::refine::inlier_stats(&b.pose, &pts, &cfg.refine);
+            let gt_score = inl * ctx.silhouette_iou(&b.pose) * (1.0 - ctx.penalty(&b.pose, &cfg));
+            let planes = crate::hypotheses::face_planes(&obs, &cfg.hypotheses);
+            println!(
+                "z {:.0} visib {:.2} pts {}: rot {:.1}° trans {:.1} | best frame {:.1}° of {} ({} planes {:?}) | score est {:.3} (inl {:.2} iou {:.2} pen {:.2}) gt {:.3} (inl {:.2} iou {:.2} pen {:.2})",
+                b.pose.center_mm.z, b.visib_fract, obs.points_mm.len(),
+                anybox_geom::symmetry::rotation_error_deg(&e.pose, &b.pose),
+                (e.pose.center_mm - b.pose.center_mm).norm(), best_frame, frames.len(), planes.len(),
+                planes.iter().map(|p| p.inliers.len()).collect::<Vec<_>>(),
+                e.score, e.inlier_fraction, e.silhouette_iou, e.depth_penalty,
+                gt_score, inl, ctx.silhouette_iou(&b.pose), ctx.penalty(&b.pose, &cfg)
+            );
+        }
+    }
 }
