@@ -2,7 +2,8 @@
 //!
 //! The modules follow the pipeline of SPEC §1, in order:
 //! 1. frame and camera I/O — [`io`] (the `anybox-io` crate);
-//! 2. [`segmentation`] — where instance masks come from;
+//! 2. [`segmentation`] — where instance masks come from; [`detect`] finds box masks itself
+//!    from geometry and colour (no learned weights);
 //! 3. [`observation`] and [`hypotheses`] — masked depth → 3D points → pose hypotheses;
 //! 4. [`depth_filter`] — the paper's depth-consistency filter;
 //! 5. [`refine`] and [`pose`] — robust ICP to the cuboid, confidence, ranking;
@@ -19,6 +20,7 @@ pub mod bench;
 pub mod config;
 pub mod context;
 pub mod depth_filter;
+pub mod detect;
 pub mod error;
 pub mod hypotheses;
 pub mod observation;

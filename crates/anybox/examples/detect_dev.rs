@@ -1,0 +1,273 @@
+//! Development harness of `anybox::detect` (issue #4): detection precision/recall/AP per layout
+//! on generated views and on `/work/shared/data/ycbv-boxes`, with timing.
+//!
+//! `cargo run --release -p anybox --example detect_dev -- [views-per-config] [dump-dir]`
+//! A GT box counts when its visible fraction is ≥ 0.5; a detection is a true positive when its
+//! mask IoU with an unmatched such GT is > 0.5 (greedy in score order); detections matching a
+//! GT with lower visibility are ignored (neither TP nor FP).
+
+use std::path::Path;
+use std::time::Instant;
+
+use anybox::detect::{detect_boxes, DetectConfig, Detection};
+use anybox::io::Mask;
+use anybox::synth::{generate_view, Layout, NoiseModel, SynthConfig};
+
+#[derive(Default)]
+struct Tally {
+    n_gt: usize,
+    scored: Vec<(f64, bool)>,
+    ignored: usize,
+    times_ms: Vec<f64>,
+    frames_all_found: usize,
+    frames: usize,
+}
+
+impl Tally {
+    fn ap(&self) -> f64 {
+        let mut s = self.scored.clone();
+        s.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let (mut tp, mut fp) = (0usize, 0usize);
+        let mut pr = Vec::new();
+        for (_, t) in &s {
+            if *t {
+                tp += 1
+            } else {
+                fp += 1
+            }
+            pr.push((
+                tp as f64 / self.n_gt.max(1) as f64,
+                tp as f64 / (tp + fp) as f64,
+            ));
+        }
+        // VOC all-point: precision envelope integrated over recall.
+        let mut ap = 0.0;
+        let mut prev_r = 0.0;
+        for i in 0..pr.len() {
+            let p_env = pr[i..].iter().map(|x| x.1).fold(0.0, f64::max);
+            ap += (pr[i].0 - prev_r) * p_env;
+            prev_r = pr[i].0;
+        }
+        ap
+    }
+    fn line(&self, name: &str) -> String {
+        let tp = self.scored.iter().filter(|x| x.1).count();
+        let fp = self.scored.len() - tp;
+        let mut t = self.times_ms.clone();
+        t.sort_by(|a, b| a.total_cmp(b));
+        let med = t.get(t.len() / 2).copied().unwrap_or(0.0);
+        format!(
+            "{name:<14} frames {:>3} gt {:>4} det {:>4} tp {:>4} fp {:>4} ign {:>3} | P {:.3} R {:.3} AP50 {:.3} | all-found frames {}/{} | median {:.1} ms",
+            self.frames,
+            self.n_gt,
+            self.scored.len(),
+            tp,
+            fp,
+            self.ignored,
+            tp as f64 / self.scored.len().max(1) as f64,
+            tp as f64 / self.n_gt.max(1) as f64,
+            self.ap(),
+            self.frames_all_found,
+            self.frames,
+            med
+        )
+    }
+}
+
+/// Scores one frame: GT masks with their visibility.
+fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], tally: &mut Tally) {
+    let n = gts.len();
+    let mut gt_area = vec![0usize; n];
+    let mut label = vec![u16::MAX; gts.first().map_or(0, |g| g.0.data.len())];
+    for (k, (m, _)) in gts.iter().enumerate() {
+        for (i, &b) in m.data.iter().enumerate() {
+            if b {
+                label[i] = k as u16;
+                gt_area[k] += 1;
+            }
+        }
+    }
+    let mut matched = vec![false; n];
+    let want: Vec<bool> = gts.iter().map(|g| g.1 >= 0.5).collect();
+    tally.n_gt += want.iter().filter(|x| **x).count();
+    for d in dets {
+        let mut inter = vec![0usize; n];
+        let mut area = 0usize;
+        for (i, &b) in d.mask.data.iter().enumerate() {
+            if b {
+                area += 1;
+                if let Some(&l) = label.get(i) {
+                    if (l as usize) < n {
+                        inter[l as usize] += 1;
+                    }
+                }
+            }
+        }
+        let mut best: Option<(usize, f64)> = None;
+        for k in 0..n {
+            let iou = inter[k] as f64 / (area + gt_area[k] - inter[k]).max(1) as f64;
+            if iou > 0.5 && !matched[k] && best.is_none_or(|b| iou > b.1) {
+                best = Some((k, iou));
+            }
+        }
+        match best {
+            Some((k, _)) if want[k] => {
+                matched[k] = true;
+                tally.scored.push((d.score, true));
+            }
+            Some((k, _)) => {
+                matched[k] = true;
+                tally.ignored += 1;
+            }
+            None => tally.scored.push((d.score, false)),
+        }
+    }
+    tally.frames += 1;
+    if (0..n).all(|k| !want[k] || matched[k]) {
+        tally.frames_all_found += 1;
+    }
+}
+
+fn dump(path: &Path, rgb: &image::RgbImage, dets: &[Detection], gts: &[(Mask, f64)]) {
+    let mut img = rgb.clone();
+    let w = img.width();
+    for (k, d) in dets.iter().enumerate() {
+        let col = [
+            (k * 97 % 255) as u8,
+            (k * 53 % 255 + 60) as u8,
+            (k * 151 % 255) as u8,
+        ];
+        for (i, &b) in d.mask.data.iter().enumerate() {
+            if b {
+                let p = img.get_pixel_mut(i as u32 % w, i as u32 / w);
+                for c in 0..3 {
+                    p.0[c] = ((p.0[c] as u16 + col[c] as u16 * 2) / 3) as u8;
+                }
+            }
+        }
+    }
+    // GT outlines in white.
+    for (m, v) in gts {
+        let c = if *v >= 0.5 { 255 } else { 128 };
+        for vv in 1..m.height - 1 {
+            for u in 1..m.width - 1 {
+                if m.get(u, vv) && !(m.get(u - 1, vv) && m.get(u + 1, vv) && m.get(u, vv - 1) && m.get(u, vv + 1)) {
+                    img.put_pixel(u, vv, image::Rgb([c, c, c]));
+                }
+            }
+        }
+    }
+    let _ = img.save(path);
+}
+
+fn dump_labels(
+    base: &Path,
+    rgb: &image::RgbImage,
+    depth: &anybox::io::DepthMap,
+    k: &anybox::geom::Intrinsics,
+    cfg: &DetectConfig,
+) {
+    if std::env::var("LABELS").is_err() {
+        return;
+    }
+    let Ok(ls) = anybox::detect::segment_labels(Some(rgb), depth, k, cfg) else {
+        return;
+    };
+    for (li, name) in [(0usize, "geo"), (1, "col")] {
+        let mut img = rgb.clone();
+        for (i, &l) in ls[li].iter().enumerate() {
+            let p = img.get_pixel_mut(i as u32 % rgb.width(), i as u32 / rgb.width());
+            if ls[3][i] == 1 {
+                p.0 = [255, 0, 0];
+            } else if ls[2][i] == 1 {
+                p.0 = [p.0[0] / 4, p.0[1] / 4, p.0[2] / 4];
+            } else if l == u32::MAX {
+                p.0 = [255, 255, 255];
+            } else {
+                let h = l.wrapping_mul(2654435761);
+                p.0 = [(h >> 24) as u8, (h >> 16) as u8, (h >> 8) as u8];
+            }
+        }
+        let _ = img.save(format!("{}_{name}.png", base.display()));
+    }
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let n_views: u32 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(6);
+    let dump_dir = args.get(2).map(std::path::PathBuf::from);
+    let cfg = match std::env::var("DETECT_CFG") {
+        Ok(j) => serde_json::from_str(&j).expect("DETECT_CFG json"),
+        Err(_) => DetectConfig::default(),
+    };
+    let only = std::env::var("ONLY").ok();
+    let configs: [(&str, Layout, Option<u32>); 5] = [
+        ("table-d0", Layout::Table, Some(0)),
+        ("table-d8", Layout::Table, Some(8)),
+        ("table-d32", Layout::Table, Some(32)),
+        ("pallet", Layout::Pallet, None),
+        ("shelf", Layout::Shelf, None),
+    ];
+    let mut total = Tally::default();
+    for (name, layout, distractors) in configs {
+        if only.as_deref().is_some_and(|o| o != name) {
+            continue;
+        }
+        let sc = SynthConfig {
+            layout,
+            scenes: n_views,
+            views: 1,
+            distractors,
+            seed: 7,
+            noise: NoiseModel::Realistic,
+            ..SynthConfig::default()
+        };
+        let mut tally = Tally::default();
+        for s in 0..n_views {
+            let v = generate_view(&sc, s, 0);
+            let t0 = Instant::now();
+            let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg).expect("detect");
+            let ms = t0.elapsed().as_secs_f64() * 1e3;
+            tally.times_ms.push(ms);
+            total.times_ms.push(ms);
+            let gts: Vec<(Mask, f64)> = v
+                .boxes
+                .iter()
+                .map(|b| (b.mask_visib.clone(), b.visib_fract))
+                .collect();
+            score_frame(&dets, &gts, &mut tally);
+            if let Some(d) = &dump_dir {
+                if let Ok(c) = std::env::var("CROP") {
+                    let c: Vec<u32> = c.split(',').filter_map(|x| x.parse().ok()).collect();
+                    let sub = image::imageops::crop_imm(&v.rgb, c[0], c[1], c[2], c[3]).to_image();
+                    let big = image::imageops::resize(&sub, c[2] * 3, c[3] * 3, image::imageops::FilterType::Nearest);
+                    let _ = big.save(d.join(format!("{name}_{s}_crop.png")));
+                }
+                dump_labels(&d.join(format!("{name}_{s}")), &v.rgb, &v.depth, &v.intrinsics, &cfg);
+                dump(&d.join(format!("{name}_{s}.png")), &v.rgb, &dets, &gts);
+            }
+        }
+        println!("{}", tally.line(name));
+    }
+    let root = Path::new("/work/shared/data/ycbv-boxes");
+    if only.as_deref().is_none_or(|o| o == "ycbv") && root.exists() {
+        let ds = anybox::io::bop::BopDataset::open(root, "test").expect("ycbv");
+        let mut tally = Tally::default();
+        for (vi, view) in ds.views.iter().enumerate() {
+            let f = view.load_frame().expect("frame");
+            let t0 = Instant::now();
+            let dets =
+                detect_boxes(f.rgb.as_ref(), &f.depth, &f.intrinsics, &cfg).expect("detect");
+            tally.times_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+            let gts: Vec<(Mask, f64)> = (0..view.gts.len())
+                .map(|i| (view.load_mask_visib(i).expect("mask"), 1.0))
+                .collect();
+            score_frame(&dets, &gts, &mut tally);
+            if let (Some(d), Some(rgb)) = (&dump_dir, &f.rgb) {
+                dump_labels(&d.join(format!("ycbv_{vi}")), rgb, &f.depth, &f.intrinsics, &cfg);
+                dump(&d.join(format!("ycbv_{vi}.png")), rgb, &dets, &gts);
+            }
+        }
+        println!("{}", tally.line("ycbv-boxes"));
+    }
+}

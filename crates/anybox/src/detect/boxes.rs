@@ -1,0 +1,506 @@
+//! From planar patches to scored box candidates: support-plane removal, grouping of up to three
+//! mutually perpendicular faces that share a convex edge, a cuboid fit per group and the
+//! box-likeness score (issue #4).
+//!
+//! Score = plane fit × silhouette IoU × depth consistency × a factor for the number of faces:
+//! - **plane fit**: the fraction of the candidate's cells within the plane tolerance of their
+//!   face's plane (curved and irregular surfaces score low);
+//! - **silhouette**: IoU between the candidate's cells and the convex hull of the fitted cuboid's
+//!   projected corners (`anybox_geom::projection`), the cuboid-silhouette test of SPEC §1;
+//! - **depth consistency**: the paper's filter (§3, `crate::depth_filter`) in image form — inside
+//!   the cuboid's silhouette, the sensor must not see *through* the cuboid: the fraction of cells
+//!   whose measured depth lies behind the cuboid's front surface by more than the tolerance is
+//!   the penalty.
+
+use std::collections::BTreeMap;
+
+use anybox_geom::projection::{ray_box_intersection, rasterize_convex_polygon, silhouette_hull_px};
+use anybox_geom::OrientedBox;
+use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
+
+use super::grid::Grid;
+use super::regions::{fit_regions, plane_tol, Region, NONE};
+use super::DetectConfig;
+
+/// A scored candidate on the grid.
+pub(crate) struct Candidate {
+    /// Grid cells of the detection (the faces plus filled-in unlabelled cells), row-major.
+    pub cells: Vec<u32>,
+    /// Box-likeness, 0..1.
+    pub score: f64,
+    /// Faces grouped.
+    pub n_faces: u8,
+}
+
+fn v3(p: &[f32; 3]) -> Vector3<f64> {
+    Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+}
+
+/// Support planes (floor, table, shelf boards, walls): a planar surface of at least
+/// `support_min_area_mm2` with at least as many cells in front of it as behind it (things stand
+/// on a support; a box face has the box's body behind it). Returns, per cell, whether it belongs
+/// to such a surface, and the support planes themselves (their fragments between boxes are
+/// dropped later by [`drop_support_fragments`]).
+pub(crate) fn support_mask(
+    g: &Grid,
+    surface_labels: &[u32],
+    surfaces: &[Region],
+    cfg: &DetectConfig,
+) -> (Vec<bool>, Vec<Region>) {
+    let mut is_support = vec![false; surfaces.len()];
+    let mut planes = Vec::new();
+    for (r, reg) in surfaces.iter().enumerate() {
+        if reg.area_mm2 < cfg.support_min_area_mm2 || reg.inlier_frac < cfg.min_plane_inlier_frac
+        {
+            continue;
+        }
+        let (mut front, mut behind) = (0usize, 0usize);
+        for (i, &z) in g.z.iter().enumerate() {
+            if z <= 0.0 {
+                continue;
+            }
+            let d = reg.dist(&g.p[i]);
+            if d.abs() > cfg.support_window_mm {
+                continue;
+            }
+            if d > cfg.support_side_margin_mm {
+                front += 1;
+            } else if d < -cfg.support_side_margin_mm {
+                behind += 1;
+            }
+        }
+        if front >= behind {
+            is_support[r] = true;
+            planes.push(reg.clone());
+        }
+    }
+    let on = surface_labels
+        .iter()
+        .map(|&l| l != NONE && is_support[l as usize])
+        .collect();
+    (on, planes)
+}
+
+/// Drops single-face candidates that lie on a support plane (pieces of a table or floor cut off
+/// between boxes): at least half their cells within `support_tol_factor` plane tolerances of the
+/// plane, with the face normal within `support_normal_tol_deg`. Multi-face candidates stay (a
+/// box face may be flush with a support, e.g. with a desk's front edge).
+pub(crate) fn drop_support_fragments(
+    g: &Grid,
+    raws: Vec<Raw>,
+    planes: &[Region],
+    cfg: &DetectConfig,
+) -> Vec<Raw> {
+    let cos_n = cfg.support_normal_tol_deg.to_radians().cos();
+    raws.into_iter()
+        .filter(|c| {
+            c.n_faces > 1
+                || !planes.iter().any(|pl| {
+                    if pl.normal.dot(&c.bx.axis(0)).abs() < cos_n {
+                        return false;
+                    }
+                    let on = c
+                        .cells
+                        .iter()
+                        .filter(|&&i| {
+                            let z = g.z[i as usize] as f64;
+                            pl.dist(&g.p[i as usize]).abs()
+                                <= cfg.support_tol_factor * plane_tol(cfg, z)
+                        })
+                        .count();
+                    2 * on >= c.cells.len()
+                })
+        })
+        .collect()
+}
+
+/// Removes support cells from a labelling: regions mostly on a support go entirely, others
+/// lose their support cells. Returns the refitted regions.
+pub(crate) fn strip_support(
+    g: &Grid,
+    labels: &mut [u32],
+    n_regions: usize,
+    on_support: &[bool],
+    cfg: &DetectConfig,
+) -> Vec<Region> {
+    let mut total = vec![0usize; n_regions];
+    let mut sup = vec![0usize; n_regions];
+    for (i, &l) in labels.iter().enumerate() {
+        if l != NONE {
+            total[l as usize] += 1;
+            if on_support[i] {
+                sup[l as usize] += 1;
+            }
+        }
+    }
+    let mut remap = vec![NONE; n_regions];
+    let mut next = 0u32;
+    for l in 0..n_regions {
+        let keep = total[l] - sup[l];
+        if 2 * sup[l] < total[l] && keep >= cfg.min_region_cells as usize {
+            remap[l] = next;
+            next += 1;
+        }
+    }
+    for (i, l) in labels.iter_mut().enumerate() {
+        if *l != NONE {
+            *l = if on_support[i] { NONE } else { remap[*l as usize] };
+        }
+    }
+    fit_regions(g, labels, next as usize, cfg)
+}
+
+/// Whether a region can be a box face: big enough, planar, not curved.
+fn is_face(r: &Region, cfg: &DetectConfig) -> bool {
+    r.n >= cfg.min_face_cells as usize
+        && r.inlier_frac >= cfg.min_plane_inlier_frac
+        && r.normal_spread_deg <= cfg.max_normal_spread_deg
+}
+
+/// Robust range (low and high quantiles) of values.
+fn robust_range(vals: &mut [f64], q: f64) -> (f64, f64) {
+    if vals.is_empty() {
+        return (0.0, 0.0);
+    }
+    let n = vals.len();
+    let lo_i = ((n as f64 * q) as usize).min(n - 1);
+    let hi_i = ((n as f64 * (1.0 - q)) as usize).min(n - 1);
+    let lo = *vals.select_nth_unstable_by(lo_i, |a, b| a.total_cmp(b)).1;
+    let hi = *vals.select_nth_unstable_by(hi_i, |a, b| a.total_cmp(b)).1;
+    (lo, hi)
+}
+
+/// A scored group of faces with its fitted cuboid, before the final mask fill.
+pub(crate) struct Raw {
+    /// Grid cells of the grouped faces.
+    pub cells: Vec<u32>,
+    /// Box-likeness, 0..1.
+    pub score: f64,
+    /// Faces grouped.
+    pub n_faces: u8,
+    /// Fitted cuboid (camera frame, mm; a single face gets a 1 mm thickness).
+    pub bx: OrientedBox,
+    /// Mean colour of the largest face.
+    pub colour: [f64; 3],
+}
+
+/// Groups faces into box candidates and scores them. Returns candidates sorted by score.
+pub(crate) fn group_candidates(
+    g: &Grid,
+    labels: &[u32],
+    regions: &[Region],
+    cfg: &DetectConfig,
+) -> Vec<Raw> {
+    let n = regions.len();
+    let face: Vec<bool> = regions.iter().map(|r| is_face(r, cfg)).collect();
+    let mut cells: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for (i, &l) in labels.iter().enumerate() {
+        if l != NONE {
+            cells[l as usize].push(i as u32);
+        }
+    }
+    // Contacts: cells of two faces at most `contact_gap_cells` apart that both lie on the
+    // other face's plane (the shared edge), counted along rows and columns.
+    let (w, h) = (g.w, g.h);
+    let gap = cfg.contact_gap_cells.max(1) as usize;
+    let mut contact: BTreeMap<(u32, u32), u32> = BTreeMap::new();
+    for v in 0..h {
+        for u in 0..w {
+            let i = v * w + u;
+            let a = labels[i];
+            if a == NONE || !face[a as usize] {
+                continue;
+            }
+            for (du, dv) in [(1usize, 0usize), (0, 1)] {
+                for d in 1..=gap {
+                    let (uu, vv) = (u + du * d, v + dv * d);
+                    if uu >= w || vv >= h {
+                        break;
+                    }
+                    let j = vv * w + uu;
+                    let b = labels[j];
+                    if b == a {
+                        break;
+                    }
+                    if b == NONE || !face[b as usize] {
+                        continue;
+                    }
+                    let (ra, rb) = (&regions[a as usize], &regions[b as usize]);
+                    let zi = g.z[i] as f64;
+                    let tol = cfg.edge_tol_factor * plane_tol(cfg, zi);
+                    if rb.dist(&g.p[i]).abs() <= tol && ra.dist(&g.p[j]).abs() <= tol {
+                        *contact.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+                    }
+                    break;
+                }
+            }
+        }
+    }
+    let sin_perp = cfg.perpendicular_tol_deg.to_radians().sin();
+    let perp = |a: usize, b: usize| regions[a].normal.dot(&regions[b].normal).abs() <= sin_perp;
+    // Extent of a face's cells along a direction (robust).
+    let extent_along = |r: usize, e: &Vector3<f64>| -> f64 {
+        let mut vals: Vec<f64> = cells[r].iter().map(|&i| v3(&g.p[i as usize]).dot(e)).collect();
+        let (lo, hi) = robust_range(&mut vals, cfg.extent_quantile);
+        hi - lo
+    };
+    let compatible = |a: usize, b: usize| -> bool {
+        let (ra, rb) = (&regions[a], &regions[b]);
+        if !perp(a, b) {
+            return false;
+        }
+        // Convex edge: each face's centroid lies behind the other face's plane.
+        let m = cfg.convex_margin_mm;
+        if (rb.centroid - ra.centroid).dot(&ra.normal) > -m
+            || (ra.centroid - rb.centroid).dot(&rb.normal) > -m
+        {
+            return false;
+        }
+        // The shared edge has about the same length on both faces.
+        let e = ra.normal.cross(&rb.normal);
+        if e.norm() < 1e-6 {
+            return false;
+        }
+        let e = e.normalize();
+        let (la, lb) = (extent_along(a, &e), extent_along(b, &e));
+        la.min(lb) >= cfg.edge_length_ratio * la.max(lb)
+    };
+    let mut pairs: Vec<((u32, u32), u32)> = contact
+        .iter()
+        .filter(|(_, &c)| c >= cfg.min_contact_cells)
+        .map(|(&k, &c)| (k, c))
+        .collect();
+    pairs.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    let mut group_of: Vec<usize> = (0..n).collect();
+    let mut members: Vec<Vec<usize>> = (0..n).map(|i| vec![i]).collect();
+    for ((a, b), _) in pairs {
+        let (a, b) = (a as usize, b as usize);
+        let (ga, gb) = (group_of[a], group_of[b]);
+        if ga == gb || members[ga].len() + members[gb].len() > 3 {
+            continue;
+        }
+        let ok = members[ga].iter().all(|&x| {
+            members[gb].iter().all(|&y| {
+                perp(x, y)
+                    && (!contact.contains_key(&(x.min(y) as u32, x.max(y) as u32))
+                        || compatible(x, y))
+            })
+        });
+        if !ok {
+            continue;
+        }
+        let moved = std::mem::take(&mut members[gb]);
+        for &x in &moved {
+            group_of[x] = ga;
+        }
+        members[ga].extend(moved);
+    }
+    let mut out: Vec<Raw> = Vec::new();
+    for (gi, mem) in members.iter().enumerate() {
+        if mem.is_empty() || group_of[gi] != gi || !mem.iter().all(|&f| face[f]) {
+            continue;
+        }
+        if let Some(c) = score_group(g, labels, regions, &cells, mem, cfg) {
+            out.push(c);
+        }
+    }
+    out.sort_by(|a, b| b.score.total_cmp(&a.score));
+    out
+}
+
+/// Final masks: unlabelled cells inside each cuboid's silhouette that agree with it (edge
+/// bands, missing depth) are added, best candidates first; `claimed` marks cells already taken.
+pub(crate) fn fill(g: &Grid, raws: Vec<Raw>, claimed: &mut [bool], cfg: &DetectConfig) -> Vec<Candidate> {
+    let (w, h) = (g.w, g.h);
+    let mut result = Vec::with_capacity(raws.len());
+    for raw in raws {
+        let mut cells = raw.cells;
+        if let Some(hull) = silhouette_hull_px(&raw.bx, &g.k) {
+            let inside = rasterize_convex_polygon(&hull, w as u32, h as u32);
+            for (i, &ins) in inside.iter().enumerate() {
+                if !ins || claimed[i] {
+                    continue;
+                }
+                let z = g.z[i] as f64;
+                let fits = z <= 0.0 || {
+                    let (u, v) = ((i % w) as f64, (i / w) as f64);
+                    let dir = Vector3::new((u - g.k.cx) / g.k.fx, (v - g.k.cy) / g.k.fy, 1.0);
+                    ray_box_intersection(&Point3::origin(), &dir, &raw.bx)
+                        .is_some_and(|(t, _, _)| (z - t).abs() <= 3.0 * plane_tol(cfg, z))
+                };
+                if fits {
+                    claimed[i] = true;
+                    cells.push(i as u32);
+                }
+            }
+        }
+        cells.sort_unstable();
+        result.push(Candidate {
+            cells,
+            score: raw.score,
+            n_faces: raw.n_faces,
+        });
+    }
+    result
+}
+
+/// Cuboid fit and box-likeness of one group of faces; `None` when rejected.
+fn score_group(
+    g: &Grid,
+    labels: &[u32],
+    regions: &[Region],
+    cells: &[Vec<u32>],
+    mem: &[usize],
+    cfg: &DetectConfig,
+) -> Option<Raw> {
+    let all: Vec<u32> = mem.iter().flat_map(|&f| cells[f].iter().copied()).collect();
+    if all.len() < cfg.min_face_cells as usize {
+        return None;
+    }
+    let pts: Vec<Vector3<f64>> = all.iter().map(|&i| v3(&g.p[i as usize])).collect();
+    // Axes from the face normals.
+    let normals: Vec<Vector3<f64>> = mem.iter().map(|&f| regions[f].normal).collect();
+    let axes: [Vector3<f64>; 3] = match normals.len() {
+        3 => {
+            let m = Matrix3::from_columns(&[normals[0], normals[1], normals[2]]);
+            let svd = m.svd(true, true);
+            let (u, vt) = (svd.u?, svd.v_t?);
+            let r = u * vt;
+            [
+                r.column(0).into_owned(),
+                r.column(1).into_owned(),
+                r.column(2).into_owned(),
+            ]
+        }
+        2 => {
+            let a = normals[0];
+            let b = (normals[1] - a * a.dot(&normals[1])).try_normalize(1e-9)?;
+            [a, b, a.cross(&b)]
+        }
+        _ => {
+            let a = normals[0];
+            let t = if a.x.abs() < 0.9 {
+                Vector3::x()
+            } else {
+                Vector3::y()
+            };
+            let b0 = a.cross(&t).normalize();
+            let c0 = a.cross(&b0);
+            // In-plane axes: the rotation with the smallest robust bounding rectangle.
+            let mut best = (f64::INFINITY, b0, c0);
+            let mut xs = Vec::with_capacity(pts.len());
+            let mut ys = Vec::with_capacity(pts.len());
+            for k in 0..30 {
+                let th = (k as f64 * 3.0).to_radians();
+                let b = b0 * th.cos() + c0 * th.sin();
+                let c = a.cross(&b);
+                xs.clear();
+                ys.clear();
+                xs.extend(pts.iter().map(|p| p.dot(&b)));
+                ys.extend(pts.iter().map(|p| p.dot(&c)));
+                let (x0, x1) = robust_range(&mut xs, cfg.extent_quantile);
+                let (y0, y1) = robust_range(&mut ys, cfg.extent_quantile);
+                let area = (x1 - x0) * (y1 - y0);
+                if area < best.0 {
+                    best = (area, b, c);
+                }
+            }
+            [a, best.1, best.2]
+        }
+    };
+    let mut size = Vector3::zeros();
+    let mut centre = Vector3::zeros();
+    let mut vals = Vec::with_capacity(pts.len());
+    for (k, ax) in axes.iter().enumerate() {
+        vals.clear();
+        vals.extend(pts.iter().map(|p| p.dot(ax)));
+        let (lo, hi) = robust_range(&mut vals, cfg.extent_quantile);
+        let (lo, hi) = if mem.len() == 1 && k == 0 {
+            // A single face: its thickness is unseen; the silhouette test uses the face itself.
+            let mid = (lo + hi) / 2.0;
+            (mid - 0.5, mid + 0.5)
+        } else {
+            (lo, hi)
+        };
+        size[k] = hi - lo;
+        centre += ax * ((lo + hi) / 2.0);
+    }
+    // Observed dimensions: every axis for two or three faces, the two in-plane axes for one.
+    let observed: Vec<f64> = if mem.len() == 1 {
+        vec![size[1], size[2]]
+    } else {
+        vec![size[0], size[1], size[2]]
+    };
+    let max_dim = observed.iter().cloned().fold(0.0, f64::max);
+    let min_dim = observed.iter().cloned().fold(f64::INFINITY, f64::min);
+    if max_dim > cfg.max_box_extent_mm || min_dim < cfg.min_box_extent_mm {
+        return None;
+    }
+    let mut rot = Matrix3::from_columns(&axes);
+    if rot.determinant() < 0.0 {
+        rot.set_column(2, &(-axes[2]));
+    }
+    let bx = OrientedBox {
+        rotation: Rotation3::from_matrix_unchecked(rot),
+        center_mm: centre,
+        size_mm: size,
+    };
+    // Plane fit.
+    let fit = mem
+        .iter()
+        .map(|&f| regions[f].inlier_frac * regions[f].n as f64)
+        .sum::<f64>()
+        / mem.iter().map(|&f| regions[f].n as f64).sum::<f64>();
+    // Silhouette IoU and depth consistency inside the hull.
+    let hull = silhouette_hull_px(&bx, &g.k)?;
+    let (w, h) = (g.w, g.h);
+    let inside = rasterize_convex_polygon(&hull, w as u32, h as u32);
+    let member = |i: usize| labels[i] != NONE && mem.contains(&(labels[i] as usize));
+    let mut inter = 0usize;
+    let mut hull_n = 0usize;
+    let mut see_through = 0usize;
+    let mut checked = 0usize;
+    for (i, &ins) in inside.iter().enumerate() {
+        if !ins {
+            continue;
+        }
+        hull_n += 1;
+        if member(i) {
+            inter += 1;
+            continue;
+        }
+        let z = g.z[i] as f64;
+        if z <= 0.0 {
+            continue;
+        }
+        let (u, v) = ((i % w) as f64, (i / w) as f64);
+        let dir = Vector3::new((u - g.k.cx) / g.k.fx, (v - g.k.cy) / g.k.fy, 1.0);
+        if let Some((t, _, _)) = ray_box_intersection(&Point3::origin(), &dir, &bx) {
+            checked += 1;
+            if z > t + cfg.see_through_margin_mm + 2.0 * plane_tol(cfg, z) {
+                see_through += 1;
+            }
+        }
+    }
+    let union = hull_n + all.len() - inter;
+    let iou = inter as f64 / union.max(1) as f64;
+    let depth_ok = 1.0 - see_through as f64 / hull_n.max(1) as f64;
+    let _ = checked;
+    let faces_factor = match mem.len() {
+        1 => cfg.one_face_factor,
+        2 => cfg.two_face_factor,
+        _ => 1.0,
+    };
+    let score = (fit * iou * depth_ok * faces_factor).clamp(0.0, 1.0);
+    if score < cfg.min_score {
+        return None;
+    }
+    let big = mem.iter().copied().max_by_key(|&f| regions[f].n)?;
+    Some(Raw {
+        cells: all,
+        score,
+        n_faces: mem.len() as u8,
+        bx,
+        colour: regions[big].colour,
+    })
+}

@@ -1,0 +1,302 @@
+//! The working grid: the frame downsampled by `grid_step_px` (2 by default), with per-cell depth,
+//! camera-frame point, smoothed normal and smoothed colour.
+//!
+//! In: a depth map (mm), optional RGB, intrinsics. Out: [`Grid`]. Everything later in the
+//! detector works on this grid, so that a 640×480 frame costs 320×240 cells.
+
+use anybox_geom::Intrinsics;
+use anybox_io::{DepthMap, RgbImage};
+
+use super::DetectConfig;
+
+/// Per-cell data of the downsampled frame.
+pub(crate) struct Grid {
+    /// Cells per row.
+    pub w: usize,
+    /// Rows.
+    pub h: usize,
+    /// Original pixels per cell side.
+    pub step: usize,
+    /// Intrinsics of the grid (cell centres at integer coordinates).
+    pub k: Intrinsics,
+    /// Depth of the nearest surface in the cell, mm; 0 = invalid.
+    pub z: Vec<f32>,
+    /// Camera-frame point of the cell, mm (zero where invalid).
+    pub p: Vec<[f32; 3]>,
+    /// Unit normal from the smoothed depth, facing the camera; zero where unknown.
+    pub n: Vec<[f32; 3]>,
+    /// Colour of the cell smoothed over 3×3 cells (0..255 per channel); grey when no RGB.
+    pub c: Vec<[f32; 3]>,
+    /// The cell holds a thin dark line of the full-resolution image (a seam between flush
+    /// cartons, a printed edge); such cells join nothing in the colour-aware segmentation.
+    pub seam: Vec<bool>,
+}
+
+/// Depth jump tolerance at depth `z_mm`: neighbours farther apart than this are different
+/// surfaces.
+#[inline]
+pub(crate) fn jump_tol(cfg: &DetectConfig, z_mm: f32) -> f32 {
+    cfg.depth_jump_abs_mm as f32 + cfg.depth_jump_rel as f32 * z_mm
+}
+
+impl Grid {
+    pub(crate) fn build(
+        rgb: Option<&RgbImage>,
+        depth: &DepthMap,
+        k: &Intrinsics,
+        cfg: &DetectConfig,
+    ) -> Grid {
+        let step = cfg.grid_step_px.clamp(1, 8) as usize;
+        let (fw, fh) = (depth.width as usize, depth.height as usize);
+        let w = fw.div_ceil(step);
+        let h = fh.div_ceil(step);
+        let n = w * h;
+        // Cell centre (in original px) of cell (gu, gv) is gu·step + (step−1)/2.
+        let off = (step as f64 - 1.0) / 2.0;
+        let s = step as f64;
+        let gk = Intrinsics {
+            fx: k.fx / s,
+            fy: k.fy / s,
+            cx: (k.cx - off) / s,
+            cy: (k.cy - off) / s,
+        };
+        let mut z = vec![0f32; n];
+        let mut c = vec![[128f32; 3]; n];
+        let mut vals = Vec::with_capacity(step * step);
+        for gv in 0..h {
+            for gu in 0..w {
+                vals.clear();
+                let mut col = [0f32; 3];
+                let mut nc = 0f32;
+                for dv in 0..step {
+                    let v = gv * step + dv;
+                    if v >= fh {
+                        break;
+                    }
+                    for du in 0..step {
+                        let u = gu * step + du;
+                        if u >= fw {
+                            break;
+                        }
+                        let d = depth.depth_mm[v * fw + u];
+                        if d > 0.0 && d.is_finite() {
+                            vals.push(d);
+                        }
+                        if let Some(img) = rgb {
+                            let px = img.get_pixel(u as u32, v as u32).0;
+                            col[0] += px[0] as f32;
+                            col[1] += px[1] as f32;
+                            col[2] += px[2] as f32;
+                            nc += 1.0;
+                        }
+                    }
+                }
+                let i = gv * w + gu;
+                if nc > 0.0 {
+                    c[i] = [col[0] / nc, col[1] / nc, col[2] / nc];
+                }
+                if let Some(&zmin) = vals.iter().min_by(|a, b| a.total_cmp(b)) {
+                    // The nearest surface in the cell: mixed cells keep the front one.
+                    let tol = jump_tol(cfg, zmin);
+                    let (mut sum, mut cnt) = (0f32, 0f32);
+                    for &d in &vals {
+                        if d - zmin <= tol {
+                            sum += d;
+                            cnt += 1.0;
+                        }
+                    }
+                    z[i] = sum / cnt;
+                }
+            }
+        }
+        let p = points(&z, w, h, &gk);
+        let zs = smooth_depth(&z, w, h, cfg);
+        let ps = points(&zs, w, h, &gk);
+        let nrm = normals(&zs, &ps, w, h, cfg);
+        let c = if rgb.is_some() { box3(&c, w, h) } else { c };
+        let seam = match rgb {
+            Some(img) if cfg.seam_valley_levels > 0.0 => seams(img, w, h, step, cfg),
+            _ => vec![false; n],
+        };
+        Grid {
+            w,
+            h,
+            step,
+            k: gk,
+            z,
+            p,
+            n: nrm,
+            c,
+            seam,
+        }
+    }
+}
+
+/// Thin dark lines: a pixel darker than both pixels two to either side (along a row or a
+/// column) by more than `seam_valley_levels`, on luminance averaged over 3 px along the line
+/// (sensor noise drops, the line does not); a cell is a seam cell when it holds at least
+/// `seam_min_pixels` such pixels.
+fn seams(img: &RgbImage, w: usize, h: usize, step: usize, cfg: &DetectConfig) -> Vec<bool> {
+    let (fw, fh) = (img.width() as usize, img.height() as usize);
+    let raw = img.as_raw();
+    let lum: Vec<i32> = raw
+        .chunks_exact(3)
+        .map(|p| (p[0] as i32) + (p[1] as i32) + (p[2] as i32))
+        .collect();
+    // Sums of 3 px: along columns (for vertical lines, valley across x) and along rows.
+    let mut col3 = vec![0i32; fw * fh];
+    let mut row3 = vec![0i32; fw * fh];
+    for v in 1..fh.saturating_sub(1) {
+        for u in 1..fw.saturating_sub(1) {
+            let i = v * fw + u;
+            col3[i] = lum[i - fw] + lum[i] + lum[i + fw];
+            row3[i] = lum[i - 1] + lum[i] + lum[i + 1];
+        }
+    }
+    // Both sums cover 9 channel values: levels × 9.
+    let t = (cfg.seam_valley_levels * 9.0) as i32;
+    let mut count = vec![0u16; w * h];
+    for v in 3..fh.saturating_sub(3) {
+        for u in 3..fw.saturating_sub(3) {
+            let i = v * fw + u;
+            let hx = col3[i - 2].min(col3[i + 2]) - col3[i] > t;
+            let vy = row3[i - 2 * fw].min(row3[i + 2 * fw]) - row3[i] > t;
+            if hx || vy {
+                count[(v / step) * w + u / step] += 1;
+            }
+        }
+    }
+    let m = cfg.seam_min_pixels.max(1) as u16;
+    count.iter().map(|&c| c >= m).collect()
+}
+
+fn points(z: &[f32], w: usize, h: usize, k: &Intrinsics) -> Vec<[f32; 3]> {
+    let (ifx, ify) = (1.0 / k.fx as f32, 1.0 / k.fy as f32);
+    let (cx, cy) = (k.cx as f32, k.cy as f32);
+    let mut p = vec![[0f32; 3]; w * h];
+    for v in 0..h {
+        for u in 0..w {
+            let i = v * w + u;
+            let d = z[i];
+            if d > 0.0 {
+                p[i] = [(u as f32 - cx) * d * ifx, (v as f32 - cy) * d * ify, d];
+            }
+        }
+    }
+    p
+}
+
+/// Guarded box filter of the depth: only neighbours on the same surface (within the jump
+/// tolerance of the centre) are averaged, so edges stay sharp while sensor noise drops.
+fn smooth_depth(z: &[f32], w: usize, h: usize, cfg: &DetectConfig) -> Vec<f32> {
+    let r = cfg.smooth_radius_cells as isize;
+    let mut out = vec![0f32; w * h];
+    for v in 0..h as isize {
+        for u in 0..w as isize {
+            let i = v as usize * w + u as usize;
+            let zc = z[i];
+            if zc <= 0.0 {
+                continue;
+            }
+            let tol = jump_tol(cfg, zc);
+            let (mut s, mut n) = (0f32, 0f32);
+            for dv in -r..=r {
+                let vv = v + dv;
+                if vv < 0 || vv >= h as isize {
+                    continue;
+                }
+                for du in -r..=r {
+                    let uu = u + du;
+                    if uu < 0 || uu >= w as isize {
+                        continue;
+                    }
+                    let zn = z[vv as usize * w + uu as usize];
+                    if zn > 0.0 && (zn - zc).abs() <= tol {
+                        s += zn;
+                        n += 1.0;
+                    }
+                }
+            }
+            out[i] = s / n;
+        }
+    }
+    out
+}
+
+fn sub(a: &[f32; 3], b: &[f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// Normals from central differences at ±`normal_radius_cells` (one-sided next to holes and
+/// depth jumps), oriented towards the camera.
+fn normals(zs: &[f32], ps: &[[f32; 3]], w: usize, h: usize, cfg: &DetectConfig) -> Vec<[f32; 3]> {
+    let r = cfg.normal_radius_cells.max(1) as usize;
+    let mut out = vec![[0f32; 3]; w * h];
+    let same =
+        |i: usize, j: usize| -> bool { zs[j] > 0.0 && (zs[j] - zs[i]).abs() <= jump_tol(cfg, zs[i]) };
+    for v in 0..h {
+        for u in 0..w {
+            let i = v * w + u;
+            if zs[i] <= 0.0 {
+                continue;
+            }
+            let tangent = |lo: Option<usize>, hi: Option<usize>| -> Option<[f32; 3]> {
+                let lo = lo.filter(|&j| same(i, j));
+                let hi = hi.filter(|&j| same(i, j));
+                match (lo, hi) {
+                    (Some(a), Some(b)) => Some(sub(&ps[b], &ps[a])),
+                    (None, Some(b)) => Some(sub(&ps[b], &ps[i])),
+                    (Some(a), None) => Some(sub(&ps[i], &ps[a])),
+                    (None, None) => None,
+                }
+            };
+            let tx = tangent((u >= r).then(|| i - r), (u + r < w).then(|| i + r));
+            let ty = tangent((v >= r).then(|| i - r * w), (v + r < h).then(|| i + r * w));
+            let (Some(a), Some(b)) = (tx, ty) else {
+                continue;
+            };
+            let mut n = [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ];
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            if len <= 0.0 || !len.is_finite() {
+                continue;
+            }
+            let p = &ps[i];
+            let sign = if n[0] * p[0] + n[1] * p[1] + n[2] * p[2] > 0.0 {
+                -1.0
+            } else {
+                1.0
+            };
+            for x in n.iter_mut() {
+                *x *= sign / len;
+            }
+            out[i] = n;
+        }
+    }
+    out
+}
+
+/// 3×3 box filter of the colours (edges clamp).
+fn box3(c: &[[f32; 3]], w: usize, h: usize) -> Vec<[f32; 3]> {
+    let mut out = vec![[0f32; 3]; w * h];
+    for v in 0..h {
+        for u in 0..w {
+            let mut s = [0f32; 3];
+            let mut n = 0f32;
+            for vv in v.saturating_sub(1)..(v + 2).min(h) {
+                for uu in u.saturating_sub(1)..(u + 2).min(w) {
+                    let x = &c[vv * w + uu];
+                    s[0] += x[0];
+                    s[1] += x[1];
+                    s[2] += x[2];
+                    n += 1.0;
+                }
+            }
+            out[v * w + u] = [s[0] / n, s[1] / n, s[2] / n];
+        }
+    }
+    out
+}

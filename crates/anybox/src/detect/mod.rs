@@ -1,0 +1,457 @@
+//! Zero-shot box detection without given masks (issue #4): instance masks of box candidates,
+//! with a box-likeness score, from one RGB-D frame — no learned weights.
+//!
+//! In: a depth map (mm), optionally the registered RGB image, and the intrinsics. Out:
+//! [`Detection`]s (mask, score in 0..1, faces grouped), best first. The paper (§3) gets its
+//! masks from SAM + DINOv2 matching (SAM-6D's ISM); anybox replaces that stage (SPEC §1 stage 2)
+//! with geometry and colour:
+//! 1. [`grid`]: the frame on a grid downsampled by [`DetectConfig::grid_step_px`]; per cell the
+//!    nearest surface's depth, its 3D point, a normal from guarded-smoothed depth, a smoothed colour;
+//! 2. [`regions`]: union-find over 4-neighbours, cut at depth jumps, normal changes and colour
+//!    changes — flush faces of touching cartons are separated by their printed edges, tape,
+//!    shadowed gaps and colour differences, which depth alone cannot see; a plane per region;
+//! 3. [`boxes`]: support planes (floor, table, shelf boards, walls) removed; up to three mutually
+//!    perpendicular faces sharing a convex edge grouped into one box; curved (sphere, cylinder),
+//!    irregular, too small and too large segments rejected; a cuboid fitted per group and scored
+//!    by plane fit × silhouette IoU × depth consistency (the paper's filter).
+//!
+//! Every threshold is a documented field of [`DetectConfig`] (`Config::detect`). The detector is
+//! deterministic: the same input and config give the same detections in the same order.
+
+mod boxes;
+mod grid;
+mod regions;
+
+use anybox_geom::Intrinsics;
+use anybox_io::{DepthMap, Mask, RgbImage};
+use serde::{Deserialize, Serialize};
+
+/// Every threshold of the detector. Defaults were tuned on the generated benchmark
+/// (`anybox_synth`, realistic noise) at 640×480; lengths in mm, angles in degrees, colour
+/// differences in 8-bit RGB levels (Euclidean over the three channels).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct DetectConfig {
+    /// Original pixels per grid cell side (1..=8). Default 2: 640×480 → 320×240 cells.
+    pub grid_step_px: u32,
+    /// Radius of the guarded box filter applied to the depth before normals, cells. Default 2.
+    pub smooth_radius_cells: u32,
+    /// Half baseline of the central differences giving normals, and how far outside a pair of
+    /// cells normals are compared, cells. Default 2.
+    pub normal_radius_cells: u32,
+    /// Depth jump between neighbouring cells that separates surfaces: constant part, mm. Default 10.
+    pub depth_jump_abs_mm: f64,
+    /// Depth jump between neighbouring cells that separates surfaces: part relative to depth.
+    /// Default 0.03 (3 % of z; consumer sensors' noise grows ∝ z²).
+    pub depth_jump_rel: f64,
+    /// Normal change across a pair of cells (compared `normal_radius_cells` outside) that
+    /// separates faces, degrees. Default 30 (a box fold is 90°).
+    pub normal_cut_deg: f64,
+    /// Colour change across a pair of cells (compared one cell outside, on 3×3-smoothed colour)
+    /// that separates regions, RGB levels. Default 12.
+    pub colour_cut: f64,
+    /// A pixel darker than both pixels two to either side (row or column) by more than this is
+    /// on a thin dark line (seam between flush cartons, printed edge), luminance levels; 0
+    /// disables seams. Default 12.
+    pub seam_valley_levels: f64,
+    /// A grid cell with at least this many seam pixels separates regions. Default 1.
+    pub seam_min_pixels: u32,
+    /// Regions with fewer cells are dropped (noise, edge bands). Default 20.
+    pub min_region_cells: u32,
+    /// Plane tolerance, constant part, mm. Default 4.
+    pub plane_tol_abs_mm: f64,
+    /// Plane tolerance, quadratic part: mm per (z in metres)². Default 6 (≈ 3σ of a D435 at 1 m
+    /// is 12 mm; Kinect-like sensors are better).
+    pub plane_tol_quad_mm: f64,
+    /// A face needs at least this fraction of its cells within the plane tolerance. Default 0.8.
+    pub min_plane_inlier_frac: f64,
+    /// A face's cell normals may deviate from its plane normal by this much on average, degrees
+    /// (curved surfaces deviate more). Default 25.
+    pub max_normal_spread_deg: f64,
+    /// Planar regions at least this large are support candidates (floor, table top, shelf board,
+    /// wall), mm². Default 250 000 (0.25 m²).
+    pub support_min_area_mm2: f64,
+    /// Only points within this distance of a support candidate's plane count for its
+    /// front/behind test, mm. Default 600.
+    pub support_window_mm: f64,
+    /// Points farther than this in front of / behind a support candidate's plane count as
+    /// front / behind, mm. Default 30.
+    pub support_side_margin_mm: f64,
+    /// A cell belongs to a support plane when its normal is within this angle of the plane's,
+    /// degrees. Default 20.
+    pub support_normal_tol_deg: f64,
+    /// A cell belongs to a support plane when within this multiple of the plane tolerance.
+    /// Default 1.5.
+    pub support_tol_factor: f64,
+    /// Faces need at least this many cells. Default 25.
+    pub min_face_cells: u32,
+    /// Two faces touch when their cells are at most this many cells apart along a row or
+    /// column (the edge band between them is unlabelled). Default 4.
+    pub contact_gap_cells: u32,
+    /// Contact cells must lie within this multiple of the plane tolerance of the other face's
+    /// plane (a real shared edge, not an occlusion boundary). Default 3.
+    pub edge_tol_factor: f64,
+    /// Two faces are adjacent with at least this many contacts. Default 3.
+    pub min_contact_cells: u32,
+    /// Faces of one box are perpendicular within this angle, degrees. Default 15.
+    pub perpendicular_tol_deg: f64,
+    /// Convex edge: each face's centroid lies at least this far behind the other's plane, mm.
+    /// Default 5.
+    pub convex_margin_mm: f64,
+    /// Two faces of one box share an edge: their extents along it agree within this ratio
+    /// (shorter / longer). Default 0.6.
+    pub edge_length_ratio: f64,
+    /// Extents are measured between these quantiles of the points (and 1 − it). Default 0.02.
+    pub extent_quantile: f64,
+    /// Candidates with an observed dimension above this are rejected (pallets, shelf beams,
+    /// walls), mm. Default 1000.
+    pub max_box_extent_mm: f64,
+    /// Candidates with an observed dimension below this are rejected (too small to estimate),
+    /// mm. Default 15.
+    pub min_box_extent_mm: f64,
+    /// Depth consistency: a cell inside the cuboid's silhouette that the sensor sees this far
+    /// (plus twice the plane tolerance) behind the cuboid's surface is a see-through violation,
+    /// mm. Default 10.
+    pub see_through_margin_mm: f64,
+    /// Score factor for a single visible face (its thickness is unseen, and flat clutter is
+    /// one face too). Default 0.7.
+    pub one_face_factor: f64,
+    /// Score factor for two visible faces. Default 0.9.
+    pub two_face_factor: f64,
+    /// Candidates scoring below this are dropped. Default 0.3.
+    pub min_score: f64,
+    /// A surface-level candidate splits into colour-level ones when two of them differ in
+    /// mean colour by more than this, RGB levels. Default 20.
+    pub split_colour_delta: f64,
+    /// Colour-level candidates count for a split when they hold at least this fraction of the
+    /// surface-level candidate's cells. Default 0.15.
+    pub split_min_fraction: f64,
+    /// A candidate is dropped when more than this fraction of its cells belongs to a better
+    /// one. Default 0.3.
+    pub max_overlap: f64,
+}
+
+impl Default for DetectConfig {
+    fn default() -> Self {
+        Self {
+            grid_step_px: 2,
+            smooth_radius_cells: 2,
+            normal_radius_cells: 2,
+            depth_jump_abs_mm: 10.0,
+            depth_jump_rel: 0.03,
+            normal_cut_deg: 30.0,
+            colour_cut: 12.0,
+            seam_valley_levels: 12.0,
+            seam_min_pixels: 1,
+            min_region_cells: 20,
+            plane_tol_abs_mm: 4.0,
+            plane_tol_quad_mm: 6.0,
+            min_plane_inlier_frac: 0.8,
+            max_normal_spread_deg: 25.0,
+            support_min_area_mm2: 250_000.0,
+            support_window_mm: 600.0,
+            support_side_margin_mm: 30.0,
+            support_normal_tol_deg: 20.0,
+            support_tol_factor: 1.5,
+            min_face_cells: 25,
+            contact_gap_cells: 4,
+            edge_tol_factor: 3.0,
+            min_contact_cells: 3,
+            perpendicular_tol_deg: 15.0,
+            convex_margin_mm: 5.0,
+            edge_length_ratio: 0.6,
+            extent_quantile: 0.02,
+            max_box_extent_mm: 1000.0,
+            min_box_extent_mm: 15.0,
+            see_through_margin_mm: 10.0,
+            one_face_factor: 0.7,
+            two_face_factor: 0.9,
+            min_score: 0.3,
+            split_colour_delta: 20.0,
+            split_min_fraction: 0.15,
+            max_overlap: 0.3,
+        }
+    }
+}
+
+/// One detected box candidate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Detection {
+    /// Visible-surface mask at the frame's size.
+    pub mask: Mask,
+    /// Box-likeness, 0..1 (plane fit × silhouette IoU × depth consistency × face-count factor).
+    pub score: f64,
+    /// Visible faces grouped into this box (1..=3).
+    pub n_faces: u8,
+}
+
+/// Why a frame could not be processed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DetectError {
+    /// The depth map has no valid (positive, finite) pixel.
+    #[error("depth map has no valid pixel ({width}x{height} px, all zero or non-finite)")]
+    NoValidDepth {
+        /// Width, px.
+        width: u32,
+        /// Height, px.
+        height: u32,
+    },
+    /// RGB and depth differ in size.
+    #[error("RGB image is {rgb_width}x{rgb_height} px but depth is {depth_width}x{depth_height} px; they must be registered at one size")]
+    SizeMismatch {
+        /// RGB width, px.
+        rgb_width: u32,
+        /// RGB height, px.
+        rgb_height: u32,
+        /// Depth width, px.
+        depth_width: u32,
+        /// Depth height, px.
+        depth_height: u32,
+    },
+    /// The depth buffer's length is not width × height (or the frame is empty).
+    #[error("depth map is {width}x{height} px but holds {len} values")]
+    BadDepthBuffer {
+        /// Width, px.
+        width: u32,
+        /// Height, px.
+        height: u32,
+        /// Values in the buffer.
+        len: usize,
+    },
+    /// Intrinsics not finite or focal lengths not positive.
+    #[error("invalid intrinsics: fx {fx}, fy {fy}, cx {cx}, cy {cy} px")]
+    BadIntrinsics {
+        /// fx, px.
+        fx: f64,
+        /// fy, px.
+        fy: f64,
+        /// cx, px.
+        cx: f64,
+        /// cy, px.
+        cy: f64,
+    },
+}
+
+/// Detects boxes in one frame: instance masks with box-likeness scores, sorted by score
+/// (descending), deterministic. `rgb`, when given, must have the depth map's size; without it
+/// only depth and normal cues separate boxes.
+pub fn detect_boxes(
+    rgb: Option<&RgbImage>,
+    depth: &DepthMap,
+    intrinsics: &Intrinsics,
+    cfg: &DetectConfig,
+) -> Result<Vec<Detection>, DetectError> {
+    validate(rgb, depth, intrinsics)?;
+    let (w, h) = (depth.width, depth.height);
+    let g = grid::Grid::build(rgb, depth, intrinsics, cfg);
+    let joins = regions::joins(&g, rgb.is_some(), &g.seam, cfg);
+    // Two levels: smooth surfaces regardless of colour (a box face with its tape, labels and
+    // print), and colour-uniform patches (which separate flush cartons).
+    let (mut geo_labels, surfaces) = regions::segment(&g, &joins, true, cfg);
+    let (mut col_labels, patches) = regions::segment(&g, &joins, false, cfg);
+    let (on_support, planes) = boxes::support_mask(&g, &geo_labels, &surfaces, cfg);
+    let surfaces = boxes::strip_support(&g, &mut geo_labels, surfaces.len(), &on_support, cfg);
+    let patches = boxes::strip_support(&g, &mut col_labels, patches.len(), &on_support, cfg);
+    let geo = boxes::group_candidates(&g, &geo_labels, &surfaces, cfg);
+    let geo = boxes::drop_support_fragments(&g, geo, &planes, cfg);
+    let col = boxes::group_candidates(&g, &col_labels, &patches, cfg);
+    let col = boxes::drop_support_fragments(&g, col, &planes, cfg);
+    let chosen = select(&g, geo, col, cfg);
+    let mut claimed: Vec<bool> = geo_labels
+        .iter()
+        .zip(&col_labels)
+        .map(|(&a, &b)| a != regions::NONE || b != regions::NONE)
+        .collect();
+    let cands = boxes::fill(&g, chosen, &mut claimed, cfg);
+    let step = g.step;
+    let (fw, fh) = (w as usize, h as usize);
+    let out = cands
+        .into_iter()
+        .map(|c| {
+            let mut mask = Mask::empty(w, h);
+            for &cell in &c.cells {
+                let (gu, gv) = (cell as usize % g.w, cell as usize / g.w);
+                for v in gv * step..((gv + 1) * step).min(fh) {
+                    for u in gu * step..((gu + 1) * step).min(fw) {
+                        mask.data[v * fw + u] = true;
+                    }
+                }
+            }
+            Detection {
+                mask,
+                score: c.score,
+                n_faces: c.n_faces,
+            }
+        })
+        .collect();
+    Ok(out)
+}
+
+/// Diagnostic view of the detector's first stages: per-pixel labels (row-major, frame size,
+/// `u32::MAX` = unlabelled or support) of the smooth surfaces and of the colour-uniform
+/// patches, after support-plane removal, plus per-pixel support and seam flags. For overlays
+/// and tuning; [`detect_boxes`] validates the same way.
+pub fn segment_labels(
+    rgb: Option<&RgbImage>,
+    depth: &DepthMap,
+    intrinsics: &Intrinsics,
+    cfg: &DetectConfig,
+) -> Result<[Vec<u32>; 4], DetectError> {
+    validate(rgb, depth, intrinsics)?;
+    let g = grid::Grid::build(rgb, depth, intrinsics, cfg);
+    let joins = regions::joins(&g, rgb.is_some(), &g.seam, cfg);
+    let (mut geo_labels, surfaces) = regions::segment(&g, &joins, true, cfg);
+    let (mut col_labels, patches) = regions::segment(&g, &joins, false, cfg);
+    let (on_support, _) = boxes::support_mask(&g, &geo_labels, &surfaces, cfg);
+    boxes::strip_support(&g, &mut geo_labels, surfaces.len(), &on_support, cfg);
+    boxes::strip_support(&g, &mut col_labels, patches.len(), &on_support, cfg);
+    let sup: Vec<u32> = on_support.iter().map(|&b| b as u32).collect();
+    let seam: Vec<u32> = g.seam.iter().map(|&b| b as u32).collect();
+    let (fw, fh) = (depth.width as usize, depth.height as usize);
+    let up = |cells: &[u32]| -> Vec<u32> {
+        let mut out = vec![u32::MAX; fw * fh];
+        for v in 0..fh {
+            for u in 0..fw {
+                out[v * fw + u] = cells[(v / g.step) * g.w + u / g.step];
+            }
+        }
+        out
+    };
+    Ok([up(&geo_labels), up(&col_labels), up(&sup), up(&seam)])
+}
+
+fn validate(
+    rgb: Option<&RgbImage>,
+    depth: &DepthMap,
+    intrinsics: &Intrinsics,
+) -> Result<(), DetectError> {
+    let (w, h) = (depth.width, depth.height);
+    if w == 0 || h == 0 || depth.depth_mm.len() != w as usize * h as usize {
+        return Err(DetectError::BadDepthBuffer {
+            width: w,
+            height: h,
+            len: depth.depth_mm.len(),
+        });
+    }
+    if let Some(img) = rgb {
+        if img.width() != w || img.height() != h {
+            return Err(DetectError::SizeMismatch {
+                rgb_width: img.width(),
+                rgb_height: img.height(),
+                depth_width: w,
+                depth_height: h,
+            });
+        }
+    }
+    let k = intrinsics;
+    if !(k.fx.is_finite() && k.fy.is_finite() && k.fx > 0.0 && k.fy > 0.0)
+        || !(k.cx.is_finite() && k.cy.is_finite())
+    {
+        return Err(DetectError::BadIntrinsics {
+            fx: k.fx,
+            fy: k.fy,
+            cx: k.cx,
+            cy: k.cy,
+        });
+    }
+    if depth.valid_count() == 0 {
+        return Err(DetectError::NoValidDepth {
+            width: w,
+            height: h,
+        });
+    }
+    Ok(())
+}
+
+/// Chooses between the surface-level and the colour-level candidates, then suppresses
+/// overlaps. A surface-level candidate stands unless it holds at least two colour-level
+/// candidates (each `split_min_fraction` of it) whose colours differ by more than
+/// `split_colour_delta` — then it is several cartons with flush faces, and those replace it.
+fn select(
+    g: &grid::Grid,
+    geo: Vec<boxes::Raw>,
+    col: Vec<boxes::Raw>,
+    cfg: &DetectConfig,
+) -> Vec<boxes::Raw> {
+    let mut owner = vec![u32::MAX; g.z.len()];
+    for (k, c) in geo.iter().enumerate() {
+        for &i in &c.cells {
+            owner[i as usize] = k as u32;
+        }
+    }
+    // Colour candidates inside each surface candidate.
+    let mut inside: Vec<Vec<usize>> = vec![Vec::new(); geo.len()];
+    let mut free: Vec<usize> = Vec::new();
+    for (k, c) in col.iter().enumerate() {
+        let mut counts: std::collections::BTreeMap<u32, usize> = Default::default();
+        for &i in &c.cells {
+            *counts.entry(owner[i as usize]).or_insert(0) += 1;
+        }
+        let best = counts
+            .iter()
+            .filter(|(&o, _)| o != u32::MAX)
+            .max_by_key(|(_, &n)| n)
+            .map(|(&o, &n)| (o, n));
+        match best {
+            Some((o, n)) if n as f64 >= 0.8 * c.cells.len() as f64 => inside[o as usize].push(k),
+            _ => free.push(k),
+        }
+    }
+    let mut take_col = vec![false; col.len()];
+    let mut out_geo = vec![true; geo.len()];
+    let d2 = cfg.split_colour_delta * cfg.split_colour_delta;
+    for (k, gc) in geo.iter().enumerate() {
+        let big: Vec<usize> = inside[k]
+            .iter()
+            .copied()
+            .filter(|&c| col[c].cells.len() as f64 >= cfg.split_min_fraction * gc.cells.len() as f64)
+            .collect();
+        let mut split = false;
+        for (x, &a) in big.iter().enumerate() {
+            for &b in &big[x + 1..] {
+                let (ca, cb) = (col[a].colour, col[b].colour);
+                let dd: f64 = (0..3).map(|i| (ca[i] - cb[i]).powi(2)).sum();
+                if dd > d2 {
+                    split = true;
+                }
+            }
+        }
+        if split {
+            out_geo[k] = false;
+            for &c in &inside[k] {
+                take_col[c] = true;
+            }
+        }
+    }
+    for k in free {
+        take_col[k] = true;
+    }
+    let mut all: Vec<boxes::Raw> = Vec::new();
+    for (k, c) in geo.into_iter().enumerate() {
+        if out_geo[k] {
+            all.push(c);
+        }
+    }
+    for (k, c) in col.into_iter().enumerate() {
+        if take_col[k] {
+            all.push(c);
+        }
+    }
+    all.sort_by(|a, b| b.score.total_cmp(&a.score));
+    let mut taken = vec![false; g.z.len()];
+    let mut out = Vec::new();
+    for c in all {
+        let overlap = c.cells.iter().filter(|&&i| taken[i as usize]).count();
+        if overlap as f64 > cfg.max_overlap * c.cells.len() as f64 {
+            continue;
+        }
+        for &i in &c.cells {
+            taken[i as usize] = true;
+        }
+        out.push(c);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,318 @@
+//! Over-segmentation of the grid into smooth, uniformly coloured surface patches, and a plane
+//! fit per patch.
+//!
+//! Two 4-neighbouring cells join (union-find) unless a depth jump, a normal change or a colour
+//! change lies between them. Normals and colours are compared a few cells apart on either side of
+//! the pair, so a fold or a printed edge is seen at its full contrast even though smoothing
+//! spreads it. Touching cartons with flush faces are separated here by their colour seams
+//! (print, tape, a different carton colour, the shadowed gap); folds by the normal test; boxes in
+//! front of others by the depth test.
+
+use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+
+use super::grid::{jump_tol, Grid};
+use super::DetectConfig;
+
+/// Label of a cell that belongs to no region.
+pub(crate) const NONE: u32 = u32::MAX;
+
+/// One planar (or rejected non-planar) patch.
+#[derive(Debug, Clone)]
+pub(crate) struct Region {
+    /// Cells in the region.
+    pub n: usize,
+    /// Centroid, mm.
+    pub centroid: Vector3<f64>,
+    /// Plane normal, unit, facing the camera.
+    pub normal: Vector3<f64>,
+    /// Fraction of cells within the plane tolerance.
+    pub inlier_frac: f64,
+    /// Mean angle between cell normals and the plane normal, degrees.
+    pub normal_spread_deg: f64,
+    /// Mean colour.
+    pub colour: [f64; 3],
+    /// Area of the patch, mm² (sum of the cells' footprints on the plane).
+    pub area_mm2: f64,
+}
+
+impl Region {
+    /// Signed distance of `p` from the plane (positive towards the camera), mm.
+    #[inline]
+    pub(crate) fn dist(&self, p: &[f32; 3]) -> f64 {
+        (p[0] as f64 - self.centroid.x) * self.normal.x
+            + (p[1] as f64 - self.centroid.y) * self.normal.y
+            + (p[2] as f64 - self.centroid.z) * self.normal.z
+    }
+}
+
+/// Plane tolerance at depth `z_mm` (grows like depth-sensor noise, ∝ z²).
+#[inline]
+pub(crate) fn plane_tol(cfg: &DetectConfig, z_mm: f64) -> f64 {
+    let zm = z_mm / 1000.0;
+    cfg.plane_tol_abs_mm + cfg.plane_tol_quad_mm * zm * zm
+}
+
+struct Dsu {
+    parent: Vec<u32>,
+    size: Vec<u32>,
+}
+
+impl Dsu {
+    fn new(n: usize) -> Self {
+        Self {
+            parent: (0..n as u32).collect(),
+            size: vec![1; n],
+        }
+    }
+    fn find(&mut self, mut x: u32) -> u32 {
+        while self.parent[x as usize] != x {
+            let p = self.parent[x as usize];
+            self.parent[x as usize] = self.parent[p as usize];
+            x = p;
+        }
+        x
+    }
+    fn union(&mut self, a: u32, b: u32) {
+        let (ra, rb) = (self.find(a), self.find(b));
+        if ra == rb {
+            return;
+        }
+        let (big, small) = if self.size[ra as usize] >= self.size[rb as usize] {
+            (ra, rb)
+        } else {
+            (rb, ra)
+        };
+        self.parent[small as usize] = big;
+        self.size[big as usize] += self.size[small as usize];
+    }
+}
+
+fn dot(a: &[f32; 3], b: &[f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn col_dist2(a: &[f32; 3], b: &[f32; 3]) -> f32 {
+    let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+}
+
+/// Which 4-neighbour pairs join: bit 0 = right neighbour, bit 1 = down neighbour; for the
+/// geometric cues only (`geo`) and for all cues (`all`).
+pub(crate) struct Joins {
+    geo: Vec<u8>,
+    all: Vec<u8>,
+}
+
+/// Decides for every pair of 4-neighbouring cells whether they lie on one smooth surface
+/// (depth and normal cues) and whether they also look alike (colour change, printed seam).
+pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) -> Joins {
+    let (w, h) = (g.w, g.h);
+    let r = cfg.normal_radius_cells.max(1) as usize;
+    let cos_n = (cfg.normal_cut_deg.to_radians().cos()) as f32;
+    let col2 = (cfg.colour_cut * cfg.colour_cut) as f32;
+    let same = |i: usize, j: usize| -> bool {
+        g.z[i] > 0.0
+            && g.z[j] > 0.0
+            && (g.z[i] - g.z[j]).abs() <= jump_tol(cfg, g.z[i].min(g.z[j]))
+    };
+    // The pair (i, j = i + one step) along one axis; `back` / `fwd` walk one cell outwards.
+    let judge = |i: usize,
+                 j: usize,
+                 back: &dyn Fn(usize) -> Option<usize>,
+                 fwd: &dyn Fn(usize) -> Option<usize>|
+     -> (bool, bool) {
+        if !same(i, j) {
+            return (false, false);
+        }
+        // Normals compared r cells outside the pair, staying on the surface.
+        let (mut a, mut b) = (i, j);
+        for _ in 0..r {
+            match back(a) {
+                Some(x) if same(a, x) => a = x,
+                _ => break,
+            }
+        }
+        for _ in 0..r {
+            match fwd(b) {
+                Some(x) if same(b, x) => b = x,
+                _ => break,
+            }
+        }
+        let (na, nb) = (&g.n[a], &g.n[b]);
+        let known = dot(na, na) > 0.5 && dot(nb, nb) > 0.5;
+        if known && dot(na, nb) < cos_n {
+            return (false, false);
+        }
+        if seam[i] || seam[j] {
+            return (true, false);
+        }
+        if has_rgb {
+            let a1 = back(i).filter(|&x| g.z[x] > 0.0).unwrap_or(i);
+            let b1 = fwd(j).filter(|&x| g.z[x] > 0.0).unwrap_or(j);
+            if col_dist2(&g.c[a1], &g.c[b1]) > col2 {
+                return (true, false);
+            }
+        }
+        (true, true)
+    };
+    let mut geo = vec![0u8; w * h];
+    let mut all = vec![0u8; w * h];
+    for v in 0..h {
+        for u in 0..w {
+            let i = v * w + u;
+            if g.z[i] <= 0.0 {
+                continue;
+            }
+            if u + 1 < w {
+                let back = |x: usize| (x % w > 0).then(|| x - 1);
+                let fwd = |x: usize| (x % w + 1 < w).then(|| x + 1);
+                let (a, b) = judge(i, i + 1, &back, &fwd);
+                geo[i] |= a as u8;
+                all[i] |= b as u8;
+            }
+            if v + 1 < h {
+                let back = |x: usize| (x >= w).then(|| x - w);
+                let fwd = |x: usize| (x + w < w * h).then(|| x + w);
+                let (a, b) = judge(i, i + w, &back, &fwd);
+                geo[i] |= (a as u8) << 1;
+                all[i] |= (b as u8) << 1;
+            }
+        }
+    }
+    Joins { geo, all }
+}
+
+/// Labels every grid cell with a region index (or [`NONE`]) by union-find over the joins
+/// (`geometric_only`: surfaces regardless of colour) and fits the regions' planes. Regions
+/// smaller than `min_region_cells` are dropped.
+pub(crate) fn segment(
+    g: &Grid,
+    joins: &Joins,
+    geometric_only: bool,
+    cfg: &DetectConfig,
+) -> (Vec<u32>, Vec<Region>) {
+    let (w, h) = (g.w, g.h);
+    let bits = if geometric_only { &joins.geo } else { &joins.all };
+    let mut dsu = Dsu::new(w * h);
+    for v in 0..h {
+        for u in 0..w {
+            let i = v * w + u;
+            let b = bits[i];
+            if b & 1 != 0 {
+                dsu.union(i as u32, (i + 1) as u32);
+            }
+            if b & 2 != 0 {
+                dsu.union(i as u32, (i + w) as u32);
+            }
+        }
+    }
+    // Compact labels of big-enough components, in scan order (deterministic).
+    let min_cells = cfg.min_region_cells.max(3);
+    let mut root_label = vec![NONE; w * h];
+    let mut labels = vec![NONE; w * h];
+    let mut n_regions = 0u32;
+    for i in 0..w * h {
+        if g.z[i] <= 0.0 {
+            continue;
+        }
+        let root = dsu.find(i as u32) as usize;
+        if dsu.size[root] < min_cells {
+            continue;
+        }
+        if root_label[root] == NONE {
+            root_label[root] = n_regions;
+            n_regions += 1;
+        }
+        labels[i] = root_label[root];
+    }
+    let regions = fit_regions(g, &labels, n_regions as usize, cfg);
+    (labels, regions)
+}
+
+/// Plane fit (PCA) and statistics of every labelled region.
+pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig) -> Vec<Region> {
+    let mut cnt = vec![0usize; n];
+    let mut s1 = vec![Vector3::<f64>::zeros(); n];
+    let mut s2 = vec![Matrix3::<f64>::zeros(); n];
+    let mut col = vec![[0f64; 3]; n];
+    for (i, &l) in labels.iter().enumerate() {
+        if l == NONE {
+            continue;
+        }
+        let l = l as usize;
+        let p = Vector3::new(g.p[i][0] as f64, g.p[i][1] as f64, g.p[i][2] as f64);
+        cnt[l] += 1;
+        s1[l] += p;
+        s2[l] += p * p.transpose();
+        for c in 0..3 {
+            col[l][c] += g.c[i][c] as f64;
+        }
+    }
+    let mut regions: Vec<Region> = (0..n)
+        .map(|l| {
+            let m = cnt[l].max(1) as f64;
+            let centroid = s1[l] / m;
+            let cov = s2[l] / m - centroid * centroid.transpose();
+            let eig = SymmetricEigen::new(cov);
+            let mut k = 0;
+            for j in 1..3 {
+                if eig.eigenvalues[j] < eig.eigenvalues[k] {
+                    k = j;
+                }
+            }
+            let mut normal: Vector3<f64> = eig.eigenvectors.column(k).into_owned();
+            if normal.norm() < 1e-9 || !normal.iter().all(|x| x.is_finite()) {
+                normal = Vector3::z();
+            }
+            normal.normalize_mut();
+            if normal.dot(&centroid) > 0.0 {
+                normal = -normal;
+            }
+            Region {
+                n: cnt[l],
+                centroid,
+                normal,
+                inlier_frac: 0.0,
+                normal_spread_deg: 90.0,
+                colour: col[l].map(|x| x / m),
+                area_mm2: 0.0,
+            }
+        })
+        .collect();
+    let mut inl = vec![0usize; n];
+    let mut ndot = vec![0f64; n];
+    let mut nknown = vec![0usize; n];
+    let mut area = vec![0f64; n];
+    let cell_area = 1.0 / (g.k.fx * g.k.fy);
+    for (i, &l) in labels.iter().enumerate() {
+        if l == NONE {
+            continue;
+        }
+        let reg = &regions[l as usize];
+        let z = g.p[i][2] as f64;
+        if reg.dist(&g.p[i]).abs() <= plane_tol(cfg, z) {
+            inl[l as usize] += 1;
+        }
+        let nc = &g.n[i];
+        let cn = Vector3::new(nc[0] as f64, nc[1] as f64, nc[2] as f64);
+        if cn.norm_squared() > 0.5 {
+            ndot[l as usize] += cn.dot(&reg.normal).abs().min(1.0);
+            nknown[l as usize] += 1;
+        }
+        // Footprint of the cell on the plane: z²/(fx fy) divided by the cosine of incidence.
+        let ray = Vector3::new(g.p[i][0] as f64, g.p[i][1] as f64, z).normalize();
+        let cos = ray.dot(&reg.normal).abs().max(0.2);
+        area[l as usize] += z * z * cell_area / cos;
+    }
+    for (l, reg) in regions.iter_mut().enumerate() {
+        let m = cnt[l].max(1) as f64;
+        reg.inlier_frac = inl[l] as f64 / m;
+        reg.normal_spread_deg = if nknown[l] > 0 {
+            (ndot[l] / nknown[l] as f64).clamp(-1.0, 1.0).acos().to_degrees()
+        } else {
+            90.0
+        };
+        reg.area_mm2 = area[l];
+    }
+    regions
+}
