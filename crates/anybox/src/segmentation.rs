@@ -79,7 +79,8 @@ pub struct InstanceMask {
 /// mask must have the frame's size.
 ///
 /// A PNG is read as a label image: a binary mask (one non-zero value) gives one instance, a
-/// label image (several values) one instance per value, in increasing value order.
+/// label image (several values) one instance per value, in increasing value order. An all-zero
+/// PNG gives one empty instance, which the estimator then reports as unusable.
 pub fn load_masks(
     source: &MaskSource,
     width: u32,
@@ -91,7 +92,12 @@ pub fn load_masks(
         MaskSource::GroundTruth => return Err(SegmentationError::GroundTruthOutsideDataset),
         MaskSource::Pngs(paths) => {
             for p in paths {
-                let labelled = anybox_io::masks::masks_from_label_image(p, size)?;
+                let mut labelled = anybox_io::masks::masks_from_label_image(p, size)?;
+                if labelled.is_empty() {
+                    // An all-zero PNG is still an instance the user asked for: keep it so the
+                    // estimator reports it as an empty mask instead of dropping it silently.
+                    labelled.push((0, Mask::empty(width, height)));
+                }
                 let several = labelled.len() > 1;
                 for (label, mask) in labelled {
                     let name = if several {
