@@ -471,6 +471,29 @@ fn figures(
 ///
 /// Images are the distinct `(scene_id, im_id)` pairs of either list; an estimate in an image
 /// without ground truth is a false positive. See the crate docs for the matching rules.
+///
+/// ```
+/// use anybox_eval::{evaluate, EstEntry, EvalOptions, GtEntry};
+/// use anybox_geom::nalgebra::{Rotation3, Vector3};
+/// use anybox_geom::OrientedBox;
+///
+/// let truth = OrientedBox::new(
+///     Rotation3::identity(),
+///     Vector3::new(0.0, 0.0, 800.0),   // centre, mm
+///     Vector3::new(200.0, 100.0, 300.0), // size, mm
+/// )?;
+/// let mut guess = truth;
+/// guess.center_mm.x += 40.0; // IoU = (200 − 40) / (200 + 40) = 2/3
+/// let gts = [GtEntry { scene_id: 1, im_id: 0, gt_index: 0, pose: truth, visib_fract: 1.0,
+///                      observed_dims: None }];
+/// let ests = [EstEntry { scene_id: 1, im_id: 0, score: 0.9, pose: guess, gt_index: Some(0) }];
+/// let report = evaluate(&gts, &ests, &EvalOptions::default());
+/// assert_eq!(report.overall.iou_ap["0.5"], Some(1.0));
+/// assert_eq!(report.overall.iou_ap["0.7"], Some(0.0));
+/// assert_eq!(report.overall.pose_ap["trans_5cm"], Some(1.0)); // 4 cm off
+/// println!("{}", report.to_table());
+/// # Ok::<(), anybox_geom::GeomError>(())
+/// ```
 pub fn evaluate(gts: &[GtEntry], ests: &[EstEntry], opts: &EvalOptions) -> Report {
     let mut by_image: BTreeMap<(u32, u32), (Vec<usize>, Vec<usize>)> = BTreeMap::new();
     for (i, g) in gts.iter().enumerate() {
