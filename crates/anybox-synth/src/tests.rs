@@ -531,3 +531,60 @@ fn timing_report() {
     let v = generate_views(&cfg);
     println!("{} views: {:.2} s", v.len(), t0.elapsed().as_secs_f64());
 }
+
+#[test]
+fn no_box_interpenetrates_another_box_or_structure() {
+    for layout in [Layout::Pallet, Layout::Table, Layout::Shelf] {
+        for s in 0..10u32 {
+            let mut rng = crate::rng::stream(21, s, 0, crate::rng::purpose::SCENE);
+            let sc = build_scene(layout, &mut rng, None);
+            let structures: Vec<crate::shape::Obb> = sc
+                .objects
+                .iter()
+                .filter(|o| o.kind == ObjKind::Structure)
+                .filter_map(|o| match o.shape {
+                    Shape::Cuboid { rot, center, half } => {
+                        Some(crate::shape::Obb { rot, center, half })
+                    }
+                    _ => None,
+                })
+                .collect();
+            for (i, a) in sc.boxes.iter().enumerate() {
+                for b in &sc.boxes[i + 1..] {
+                    assert!(
+                        !a.obb.overlaps(&b.obb, -0.05),
+                        "{layout} scene {s}: boxes overlap"
+                    );
+                }
+                for st in &structures {
+                    assert!(
+                        !a.obb.overlaps(st, -0.05),
+                        "{layout} scene {s}: box inside structure"
+                    );
+                }
+                // Every box rests on something: its lowest point is at most 0.1 mm above a
+                // support surface (floor, pallet deck, table, board or a box top); leaning boxes too.
+                let rot = a.obb.rot;
+                let lowest = a.obb.center.z - (rot.row(2).abs() * a.obb.half)[0];
+                let tops: Vec<f64> = structures
+                    .iter()
+                    .chain(sc.boxes.iter().map(|b| &b.obb))
+                    .map(|o| o.center.z + (o.rot.row(2).abs() * o.half)[0])
+                    .chain([0.0])
+                    .collect();
+                if rot[(2, 2)].abs() < 0.999 {
+                    assert!(
+                        sc.boxes
+                            .iter()
+                            .any(|b| b.obb != a.obb && a.obb.overlaps(&b.obb, 0.1)),
+                        "{layout} scene {s}: tilted box leans on nothing"
+                    );
+                }
+                assert!(
+                    tops.iter().any(|t| (lowest - t).abs() < 0.1),
+                    "{layout} scene {s}: box floating at z = {lowest} mm"
+                );
+            }
+        }
+    }
+}
