@@ -22,11 +22,18 @@
 //! truths by ascending `degrees + centimetres` and takes the first unmatched one within both
 //! thresholds (`≤`, with a 1e-3° / 1e-3 mm rounding tolerance so that exact estimates pass the
 //! 0° and 0 cm thresholds of the PACE averages). Rotation-only AP uses a 100 cm translation
-//! bound, translation-only a 360° rotation bound, as NOCS does. With `pose_gating` (NOCS `use_matches_for_pose`), estimates and
-//! ground truths not matched at IoU 0.1 are dropped before pose matching, so pose recall is over
-//! the detected ground truths only. ADD-S matching (BOP `match_poses`): each estimate takes the
+//! bound, translation-only a 360° rotation bound, as NOCS does. Rotation error is
+//! `anybox_geom::symmetry`'s: the smallest geodesic angle over the box's symmetries and
+//! size-consistent axis relabellings; translation error is the centre distance.
+//!
+//! With `pose_gating` (NOCS `use_matches_for_pose`), estimates and ground truths not matched at
+//! IoU 0.1 are dropped before pose and ADD-S matching, so those recalls are over the detected
+//! ground truths only (`n_pose_gt`). ADD-S matching (BOP `match_poses`): each estimate takes the
 //! unmatched ground truth with the smallest ADD-S/d, if ADD-S < f·d. ADD-S samples each box at
 //! its own size, so it mixes size and pose error (notes §2).
+//!
+//! Size error pools the three per-axis absolute errors (axes matched by
+//! `anybox_geom::symmetry`) of every pair matched at IoU > 0.25.
 //!
 //! # Ignored ground truths
 //! A ground truth is *ignored* when its `visib_fract` is below [`EvalOptions::min_visib`], or
