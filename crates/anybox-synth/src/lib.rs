@@ -454,14 +454,11 @@ fn render_view(
             noise::apply_realistic(&out, sc.camera, k.fx, w, h, view_key, &mut hole_rng)
         }
     };
-    let mut rgb_bytes = out.rgb.clone();
-    if cfg.noise == NoiseModel::Realistic {
-        let rgb_key = hash3(view_key, 0, purpose::RGB);
-        for (i, px) in rgb_bytes.iter_mut().enumerate() {
-            let n = 2.0 * rng::gauss_fast(hash3(rgb_key, i as u64, 0));
-            *px = (*px as f64 + n).round().clamp(0.0, 255.0) as u8;
-        }
-    }
+    let rgb_bytes = if cfg.noise == NoiseModel::Realistic {
+        realistic_rgb(&out.rgb, w as usize, h as usize, view_key)
+    } else {
+        out.rgb.clone()
+    };
     // Image buffer length is exactly w·h·3 by construction.
     let rgb = RgbImage::from_raw(w, h, rgb_bytes).expect("buffer is width*height*3 bytes");
     let depth = DepthMap {
@@ -546,6 +543,37 @@ fn render_view(
             )
         },
     }
+}
+
+/// Camera effects on the ideal shaded image: per-view exposure (×0.8–1.2) and white balance
+/// (±5 % per channel), optical blur (separable [1 2 1]/4 kernel, ≈ 0.7 px σ), and sensor noise
+/// (σ = 2 grey levels per channel).
+fn realistic_rgb(ideal: &[u8], w: usize, h: usize, view_key: u64) -> Vec<u8> {
+    let rgb_key = hash3(view_key, 0, purpose::RGB);
+    let u = |i: u64| rng::unit(hash3(rgb_key, u64::MAX - i, 1));
+    let gain = 0.8 + 0.4 * u(0);
+    let wb = [0.95 + 0.1 * u(1), 0.95 + 0.1 * u(2), 0.95 + 0.1 * u(3)];
+    let at = |x: usize, y: usize, c: usize| ideal[3 * (y * w + x) + c] as f64;
+    let blur_x: Vec<f64> = (0..w * h * 3)
+        .map(|i| {
+            let (p, c) = (i / 3, i % 3);
+            let (x, y) = (p % w, p / w);
+            let (xl, xr) = (x.saturating_sub(1), (x + 1).min(w - 1));
+            0.25 * at(xl, y, c) + 0.5 * at(x, y, c) + 0.25 * at(xr, y, c)
+        })
+        .collect();
+    (0..w * h * 3)
+        .map(|i| {
+            let (p, c) = (i / 3, i % 3);
+            let (x, y) = (p % w, p / w);
+            let (yu, yd) = (y.saturating_sub(1), (y + 1).min(h - 1));
+            let b = 0.25 * blur_x[3 * (yu * w + x) + c]
+                + 0.5 * blur_x[i]
+                + 0.25 * blur_x[3 * (yd * w + x) + c];
+            let n = 2.0 * rng::gauss_fast(hash3(rgb_key, i as u64, 0));
+            (b * gain * wb[c] + n).round().clamp(0.0, 255.0) as u8
+        })
+        .collect()
 }
 
 /// Generates every view of every scene in memory (scenes × views, in order), in parallel.
