@@ -61,8 +61,8 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<()> {
         pose_gating: args.pose_gating,
         min_observed_dims: args.min_observed_dims,
     };
-    let report = evaluate_dataset(&args.dataset, &args.split, &args.results, &opts)
-        .with_context(|| {
+    let report =
+        evaluate_dataset(&args.dataset, &args.split, &args.results, &opts).with_context(|| {
             format!(
                 "evaluating {} against {} (split {})",
                 args.results.display(),
