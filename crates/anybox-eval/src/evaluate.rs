@@ -526,6 +526,13 @@ pub fn evaluate(gts: &[GtEntry], ests: &[EstEntry], opts: &EvalOptions) -> Repor
         };
         by_visibility.insert(key.to_string(), figures(&all, ests, &in_band));
     }
+    let mut observed_dims_counts: Option<[usize; 4]> = None;
+    for g in gts {
+        if let Some(n) = g.observed_dims {
+            let c = observed_dims_counts.get_or_insert([0; 4]);
+            c[usize::from(n.min(3))] += 1;
+        }
+    }
     Report {
         iou_method: opts.iou,
         pose_gating: opts.pose_gating,
@@ -534,6 +541,7 @@ pub fn evaluate(gts: &[GtEntry], ests: &[EstEntry], opts: &EvalOptions) -> Repor
         overall,
         by_scene,
         by_visibility,
+        observed_dims_counts,
         time_s: None,
     }
 }

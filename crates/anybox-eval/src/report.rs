@@ -102,6 +102,10 @@ pub struct Report {
     pub by_scene: BTreeMap<u32, Figures>,
     /// Figures per visibility band (`"[0.1,0.3)"`, `"[0.3,0.5)"`, `"[0.5,0.8)"`, `"[0.8,1.0]"`).
     pub by_visibility: BTreeMap<String, Figures>,
+    /// Ground truths (all, before ignoring) showing 0, 1, 2, 3 of their dimensions, when
+    /// observed dimensions were computed (`--min-observed-dims`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub observed_dims_counts: Option<[usize; 4]>,
     /// Timing from the results file (set by `evaluate_dataset`; absent from `evaluate`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub time_s: Option<TimeSummary>,
@@ -153,6 +157,13 @@ impl Report {
                 String::new()
             }
         );
+        if let Some(c) = self.observed_dims_counts {
+            let _ = writeln!(
+                s,
+                "ground truths showing 0/1/2/3 dimensions: {}/{}/{}/{}",
+                c[0], c[1], c[2], c[3]
+            );
+        }
         let scopes = self.scopes();
         let w = scopes
             .iter()

@@ -96,6 +96,20 @@ fn synthetic_ground_truth_as_estimates_scores_one() {
     };
     let r = evaluate_dataset(&root, anybox_synth::SPLIT, &res, &opts3).unwrap();
     assert!(r.overall.n_gt > 0 && r.overall.n_gt <= counted);
+    let hist = r.observed_dims_counts.unwrap();
+    assert_eq!(hist.iter().sum::<usize>(), ds.n_gt());
+    // Counted = visible enough and at least 2 observed dims.
+    let mut expected = 0;
+    for v in &ds.views {
+        for g in &v.gts {
+            let mask = v.load_mask_visib(g.gt_index).unwrap();
+            let dims = anybox_eval::observed_dims(&g.pose, &mask, &v.intrinsics).count;
+            if g.visib_fract >= 0.1 && dims >= 2 {
+                expected += 1;
+            }
+        }
+    }
+    assert_eq!(r.overall.n_gt, expected);
     assert_all_one(&r);
 }
 
