@@ -481,9 +481,19 @@ mod bench {
             ("es+ctx", Config::default()),
             ("pointfit", Config::anybox()),
             ("canonical", Config::paper().canonical()),
-            ("pf-nopolish", {
+            ("pf-edge0", {
                 let mut c = Config::anybox();
-                c.scale.polish_iters = 0;
+                c.scale.maskfit_edge_px = 0.0;
+                c
+            }),
+            ("pf-edge.5", {
+                let mut c = Config::anybox();
+                c.scale.maskfit_edge_px = 0.5;
+                c
+            }),
+            ("pf-it5", {
+                let mut c = Config::anybox();
+                c.scale.pointfit_iters = 5;
                 c
             }),
         ];
@@ -565,6 +575,79 @@ mod bench {
                 pct(&mut times, 0.5),
                 pct(&mut times, 0.9),
                 pct(&mut calls, 0.5),
+            );
+        }
+    }
+}
+
+/// Real-data check on ycbv-boxes (run in release:
+/// `cargo test -p anybox --release --lib -- --ignored --nocapture ycbv_bench`).
+#[cfg(test)]
+mod ycbv {
+    use super::*;
+    use anybox_geom::iou::{iou, IouMethod};
+    use std::path::Path;
+    use std::time::Instant;
+
+    #[test]
+    #[ignore]
+    fn ycbv_bench() {
+        let root = Path::new("/work/shared/data/ycbv-boxes");
+        let Ok(ds) = anybox_io::bop::BopDataset::open(root, "test") else {
+            println!("ycbv-boxes not found");
+            return;
+        };
+        for (name, cfg) in [
+            ("pointfit", Config::anybox()),
+            ("paper-es", Config::paper()),
+        ] {
+            let mut ious = vec![];
+            let mut errs = vec![];
+            let mut times = vec![];
+            for v in &ds.views {
+                let Ok(f) = v.load_frame() else { continue };
+                for g in &v.gts {
+                    let Ok(m) = v.load_mask_visib(g.gt_index) else {
+                        continue;
+                    };
+                    let t0 = Instant::now();
+                    let r = estimate_box(&f.depth, &f.intrinsics, &m, &cfg);
+                    times.push(t0.elapsed().as_secs_f64() * 1e3);
+                    match r {
+                        Ok(e) => {
+                            ious.push(iou(&e.pose, &g.pose, IouMethod::Exact));
+                            let se = anybox_geom::symmetry::size_error_mm(&e.pose, &g.pose);
+                            errs.extend(se.iter().copied());
+                            if std::env::var("BENCH_VERBOSE").is_ok() {
+                                println!(
+                                    "  obj {} iou {:.3} size {:.1?} gt {:.1?} flags {:?}",
+                                    g.obj_id,
+                                    ious[ious.len() - 1],
+                                    e.pose.size_mm.as_slice(),
+                                    g.pose.size_mm.as_slice(),
+                                    e.observed_axes
+                                );
+                            }
+                        }
+                        Err(e) => {
+                            println!("  error {e}");
+                            ious.push(0.0);
+                        }
+                    }
+                }
+            }
+            ious.sort_by(f64::total_cmp);
+            errs.sort_by(f64::total_cmp);
+            times.sort_by(f64::total_cmp);
+            let med = |v: &[f64]| v.get(v.len() / 2).copied().unwrap_or(f64::NAN);
+            println!(
+                "{name:10} n={} min iou {:.3} med iou {:.3} >0.5 {} med size err {:.1} mm, med {:.1} ms",
+                ious.len(),
+                ious.first().copied().unwrap_or(f64::NAN),
+                med(&ious),
+                ious.iter().filter(|x| **x > 0.5).count(),
+                med(&errs),
+                med(&times)
             );
         }
     }

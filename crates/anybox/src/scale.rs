@@ -107,6 +107,10 @@ pub struct ScaleConfig {
     pub pointfit_mask_rays: bool,
     /// PointFit with mask rays: percentile (each end, %) of the face coordinates taken as edges.
     pub maskfit_percentile: f64,
+    /// PointFit with mask rays: pixel footprints added to each extent (pixel centres lie up to
+    /// half a pixel inside each edge, which argues for 1). Default 0: on the synthetic bench 0
+    /// beat 0.5 and 1 (median IoU 0.956 vs 0.948 vs 0.923 on fully observed boxes).
+    pub maskfit_edge_px: f64,
     /// PointFit: silhouette polish iterations on the observed faces (0 = none).
     pub polish_iters: u32,
     /// PointFit: largest relative size change one polish step may make.
@@ -134,6 +138,7 @@ impl Default for ScaleConfig {
             pointfit_edge_px: 1.0,
             pointfit_mask_rays: true,
             maskfit_percentile: 0.1,
+            maskfit_edge_px: 0.0,
             polish_iters: 0,
             polish_max_rel_step: 0.15,
         }
@@ -718,6 +723,7 @@ pub fn mask_ray_fit(
     face: &[Option<usize>],
     faces: [bool; 3],
     pct: f64,
+    edge_px: f64,
 ) -> MaskRayFit {
     let k = inputs.intrinsics;
     let mut normals = [Vector3::zeros(); 3];
@@ -791,7 +797,7 @@ pub fn mask_ray_fit(
                 .map(|d| 1.0 / d.px_per_mm[a].max(1e-9))
                 .unwrap_or(mm_per_px)
                 .min(3.0 * mm_per_px);
-            extents_mm[a] = Some(hi - lo + foot);
+            extents_mm[a] = Some(hi - lo + edge_px * foot);
         }
     }
     MaskRayFit {
@@ -874,7 +880,15 @@ fn point_fit<P: PoseEstimator>(
         let mm_per_px =
             pose.center_mm.z.max(1.0) / (0.5 * (inputs.intrinsics.fx + inputs.intrinsics.fy));
         let ext = if cfg.pointfit_mask_rays {
-            mask_ray_fit(&pose, inputs, &face, faces, cfg.maskfit_percentile).extents_mm
+            mask_ray_fit(
+                &pose,
+                inputs,
+                &face,
+                faces,
+                cfg.maskfit_percentile,
+                cfg.maskfit_edge_px,
+            )
+            .extents_mm
         } else {
             point_extents_mm(&pose, inputs.points_mm, &face, cfg.pointfit_percentile)
                 .map(|e| e.map(|e| e + cfg.pointfit_edge_px * mm_per_px))
