@@ -56,6 +56,9 @@ pub struct HypothesisConfig {
     /// An axis with `|axis · viewdir|` below this is treated as seen edge-on (centre on the
     /// points' extent midpoint). Default 0.1 (≈ 84° from the view ray).
     pub edge_on_cos: f64,
+    /// With a prior pose, each frame contributes only its axis assignment closest to the
+    /// prior's (instead of all 6): cheaper, and the scale loop's axes stay put. Default true.
+    pub prior_restricts: bool,
     /// RANSAC seed.
     pub seed: u64,
 }
@@ -74,6 +77,7 @@ impl Default for HypothesisConfig {
             dedup_angle_deg: 4.0,
             extent_trim: 0.02,
             edge_on_cos: 0.1,
+            prior_restricts: true,
             seed: 0xb0c5,
         }
     }
@@ -527,8 +531,10 @@ pub fn place_center(
 }
 
 /// Full hypothesis set for one template size: every frame's 6 rotations, placed behind the
-/// visible faces; plus, with a `prior`, the prior's 6 axis assignments placed the same way and the
-/// prior itself (resized). Boxes that cannot be built are skipped.
+/// visible faces; plus, with a `prior`, the prior itself (resized) and its frame's axis
+/// assignments placed the same way. With a prior and `cfg.prior_restricts`, every frame (the
+/// prior's included) contributes only the assignment closest to the prior. Boxes that cannot be
+/// built are skipped.
 pub fn generate(
     obs: &Observation,
     frames: &[Matrix3<f64>],
@@ -565,7 +571,32 @@ pub fn generate(
             [2, 1, 0],
             [1, 0, 2],
         ];
-        for (r, p) in frame_rotations(f).iter().zip(PERMS) {
+        let rots = frame_rotations(f);
+        // With a prior (and `prior_restricts`), a frame only contributes the axis assignment
+        // closest to the prior's (modulo the box's 180° symmetries): the scale loop keeps its axes.
+        let keep: [bool; 6] = match prior {
+            Some(pr) if cfg.prior_restricts => {
+                let m = pr.rotation.matrix().transpose();
+                let sim = |r: &Rotation3<f64>| {
+                    let d = (m * r.matrix()).diagonal();
+                    // max over the 4 sign patterns with an even number of flips.
+                    [
+                        d.x + d.y + d.z,
+                        d.x - d.y - d.z,
+                        -d.x + d.y - d.z,
+                        -d.x - d.y + d.z,
+                    ]
+                    .into_iter()
+                    .fold(f64::NEG_INFINITY, f64::max)
+                };
+                let best = (0..6)
+                    .max_by(|&a, &b| sim(&rots[a]).total_cmp(&sim(&rots[b])))
+                    .unwrap_or(0);
+                std::array::from_fn(|i| i == best)
+            }
+            _ => [true; 6],
+        };
+        for ((r, p), _) in rots.iter().zip(PERMS).zip(keep).filter(|x| x.1) {
             // Column 2 of r is ±frame column p[2]; its extent flips with the sign.
             let z_sign = r.matrix().column(2).dot(&f.column(p[2]));
             let e2 = if z_sign >= 0.0 {

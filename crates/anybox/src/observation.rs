@@ -47,8 +47,11 @@ pub struct ObservationConfig {
     pub outlier_k: f64,
     /// Normal-estimation window radius, px (half-windows of `(2r+1) × r` px). Default 3.
     pub normal_radius_px: u32,
-    /// Size of the fixed subsample used for scoring and ICP. Default 600.
+    /// Size of the fixed subsample used for scoring and ICP. Default 400.
     pub max_subsample: usize,
+    /// A pixel outside the mask is an occluder when nearer than the median observed depth by
+    /// more than this (or 3 % of the depth), mm. Default 20 mm.
+    pub occluder_margin_mm: f64,
 }
 
 impl Default for ObservationConfig {
@@ -59,7 +62,8 @@ impl Default for ObservationConfig {
             flying_rel: 0.03,
             outlier_k: 3.5,
             normal_radius_px: 3,
-            max_subsample: 600,
+            max_subsample: 400,
+            occluder_margin_mm: 20.0,
         }
     }
 }
@@ -82,29 +86,83 @@ pub struct MaskRows {
 }
 
 impl MaskRows {
-    /// Builds the prefix sums; `None` for an empty mask.
-    pub fn new(mask: &Mask) -> Option<Self> {
-        let (u0, v0, u1, v1) = mask.bbox()?;
-        let width = u1 - u0 + 1;
-        let height = v1 - v0 + 1;
+    /// Prefix sums of an arbitrary per-pixel predicate over the rectangle `u0.., v0..` of
+    /// `width × height` px.
+    pub fn from_fn(
+        u0: u32,
+        v0: u32,
+        width: u32,
+        height: u32,
+        f: impl Fn(u32, u32) -> bool,
+    ) -> Self {
         let stride = width as usize + 1;
         let mut prefix = vec![0u32; stride * height as usize];
         let mut count = 0usize;
         for r in 0..height {
             let mut acc = 0u32;
             for k in 0..width {
-                if mask.get(u0 + k, v0 + r) {
+                if f(u0 + k, v0 + r) {
                     acc += 1;
                 }
                 prefix[r as usize * stride + k as usize + 1] = acc;
             }
             count += acc as usize;
         }
-        Some(Self {
+        Self {
             u0,
             v0,
             width,
             height,
+            prefix,
+            count,
+        }
+    }
+
+    /// Builds the prefix sums; `None` for an empty mask (or a buffer shorter than w × h).
+    pub fn new(mask: &Mask) -> Option<Self> {
+        let w = mask.width as usize;
+        if w == 0 || mask.data.len() < w * mask.height as usize {
+            return None;
+        }
+        // Bounding box from row slices (much faster than a per-pixel scan).
+        let (mut u0, mut v0, mut u1, mut v1) = (usize::MAX, usize::MAX, 0usize, 0usize);
+        for (v, row) in mask
+            .data
+            .chunks_exact(w)
+            .take(mask.height as usize)
+            .enumerate()
+        {
+            if let Some(a) = row.iter().position(|b| *b) {
+                // `a` exists, so `rposition` finds at least that pixel.
+                let b = row.iter().rposition(|b| *b).unwrap_or(a);
+                u0 = u0.min(a);
+                u1 = u1.max(b);
+                v0 = v0.min(v);
+                v1 = v;
+            }
+        }
+        if u0 == usize::MAX {
+            return None;
+        }
+        let (bw, bh) = (u1 - u0 + 1, v1 - v0 + 1);
+        let stride = bw + 1;
+        let mut prefix = vec![0u32; stride * bh];
+        let mut count = 0usize;
+        for r in 0..bh {
+            let row = &mask.data[(v0 + r) * w + u0..(v0 + r) * w + u1 + 1];
+            let out = &mut prefix[r * stride..(r + 1) * stride];
+            let mut acc = 0u32;
+            for (k, b) in row.iter().enumerate() {
+                acc += *b as u32;
+                out[k + 1] = acc;
+            }
+            count += acc as usize;
+        }
+        Some(Self {
+            u0: u0 as u32,
+            v0: v0 as u32,
+            width: bw as u32,
+            height: bh as u32,
             prefix,
             count,
         })
@@ -148,6 +206,11 @@ pub struct Observation {
     pub subsample: Vec<usize>,
     /// Row prefix sums of `mask` (silhouette IoU in O(rows)).
     pub mask_rows: MaskRows,
+    /// Row prefix sums of the pixels *outside* the mask whose appearance a box behind them
+    /// explains: depth missing, or nearer than the observation's median depth minus
+    /// `max(occluder_margin_mm, 3 % z)` (an occluder). Over the mask's bounding box grown by half
+    /// its larger side (+8 px); outside that region silhouette pixels count as disagreement. Used by the occlusion-aware silhouette agreement.
+    pub explained_rows: MaskRows,
     /// Per-observation caches filled by the first `estimate_pose` call (depth cells, hypothesis
     /// frames), reused by the later calls of the scale loop.
     pub(crate) cache: ObsCache,
@@ -331,6 +394,24 @@ pub fn observe(
         // Pixels are in raster order, so an even stride spreads the subsample over the mask.
         (0..m).map(|j| (j * n + n / (2 * m)) / m).collect()
     };
+    let z_med = median(
+        points
+            .iter()
+            .step_by(n.div_ceil(2048).max(1))
+            .map(|p| p.z)
+            .collect(),
+    );
+    let z_cut = (z_med - cfg.occluder_margin_mm.max(0.03 * z_med)) as f32;
+    let grow = mask_rows.width.max(mask_rows.height) / 2 + 8;
+    let (eu0, ev0) = (u0.saturating_sub(grow), v0.saturating_sub(grow));
+    let eu1 = (u0 + mask_rows.width + grow).min(depth.width);
+    let ev1 = (v0 + mask_rows.height + grow).min(depth.height);
+    let explained_rows = MaskRows::from_fn(eu0, ev0, eu1 - eu0, ev1 - ev0, |u, v| {
+        // In bounds: the region is clipped to the image and both buffers were checked.
+        let i = v as usize * w + u as usize;
+        let d = depth.depth_mm[i];
+        !mask.data[i] && (d.is_nan() || d <= 0.0 || d < z_cut)
+    });
     Ok(Observation {
         points_mm: points,
         normals,
@@ -339,6 +420,7 @@ pub fn observe(
         centroid_mm: centroid,
         subsample,
         mask_rows,
+        explained_rows,
         cache: ObsCache::default(),
     })
 }
@@ -507,7 +589,7 @@ mod tests {
         for n in &obs.normals {
             assert!(n.dot(&expect) > 0.999, "{n:?}");
         }
-        assert!(obs.subsample.len() <= 600);
+        assert!(obs.subsample.len() <= 400);
         assert_eq!(obs.mask_rows.count, 40 * 56);
         assert_eq!(obs.mask_rows.count_in_row(10, 0, 100), 56);
         assert_eq!(obs.mask_rows.count_in_row(10, 10, 19), 10);

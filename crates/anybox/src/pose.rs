@@ -6,7 +6,7 @@
 //! Stages (SPEC §1):
 //! 1. hypotheses ([`crate::hypotheses`]): geometric frames × 6 axis assignments, placed behind the
 //!    visible faces; with a prior, the prior and its axis assignments too;
-//! 2. cheap coarse score: mean truncated distance of ~200 observed points to the hypothesis'
+//! 2. cheap coarse score: mean truncated distance of ~150 observed points to the hypothesis'
 //!    camera-facing surface, divided by the truncation (so in [0, 1], lower is better);
 //! 3. depth-consistency penalty ([`crate::depth_filter`], the paper's filter) added to the coarse
 //!    score to re-rank (`key = coarse + rank_weight · penalty`; switched off by
@@ -58,7 +58,7 @@ pub struct PoseConfig {
     pub refine: RefineConfig,
     /// Coarse-score flavour. Default [`CoarseScore::VisibleSurface`].
     pub coarse: CoarseScore,
-    /// Observed points used for the coarse score. Default 200.
+    /// Observed points used for the coarse score. Default 150.
     pub coarse_points: usize,
     /// Truncation of the coarse point distance, mm. Default 20 mm.
     pub coarse_trunc_mm: f64,
@@ -92,7 +92,7 @@ impl Default for PoseConfig {
             depth_filter: DepthFilterConfig::default(),
             refine: RefineConfig::default(),
             coarse: CoarseScore::VisibleSurface,
-            coarse_points: 200,
+            coarse_points: 150,
             coarse_trunc_mm: 20.0,
             coarse_align_iters: 2,
             top_k: 4,
@@ -114,7 +114,8 @@ pub struct PoseEstimate {
     pub score: f64,
     /// Fraction of (subsampled) observed points on the visible surface, [0, 1].
     pub inlier_fraction: f64,
-    /// IoU of the cuboid silhouette with the observed mask, [0, 1].
+    /// Occlusion-aware IoU of the cuboid silhouette with the observed mask, [0, 1] (see
+    /// [`silhouette_iou`]).
     pub silhouette_iou: f64,
     /// Depth-consistency penalty of the returned pose, [0, 1].
     pub depth_penalty: f64,
@@ -327,8 +328,11 @@ impl<'a> ScoringContext<'a> {
     }
 }
 
-/// IoU between the convex hull of `pose`'s projected corners and `obs.mask` (0 when a corner is
-/// behind the camera). Scanline over the hull rows, mask counts from the row prefix sums.
+/// Occlusion-aware IoU between the convex hull of `pose`'s projected corners and `obs.mask`
+/// (0 when a corner is behind the camera): hull pixels outside the mask that are explained by a
+/// nearer occluder or by missing depth ([`Observation::explained_rows`]) are left out of the
+/// union, so a partly occluded box is not pushed to shrink into its visible part. Scanline over
+/// the hull rows, counts from the row prefix sums (O(rows)).
 pub fn silhouette_iou(pose: &OrientedBox, obs: &Observation, k: &Intrinsics) -> f64 {
     let mut pts = Vec::with_capacity(8);
     for c in pose.corners_mm() {
@@ -348,6 +352,7 @@ pub fn silhouette_iou(pose: &OrientedBox, obs: &Observation, k: &Intrinsics) -> 
     let v1 = (ymax.floor().min((h - 1) as f64) as i64).max(-1);
     let mut hull_n: u64 = 0;
     let mut inter: u64 = 0;
+    let mut explained: u64 = 0;
     for v in v0..=v1 {
         let y = v as f64;
         let (mut xa, mut xb) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -375,8 +380,11 @@ pub fn silhouette_iou(pose: &OrientedBox, obs: &Observation, k: &Intrinsics) -> 
         }
         hull_n += (ub - ua + 1) as u64;
         inter += obs.mask_rows.count_in_row(v, ua, ub) as u64;
+        explained += obs.explained_rows.count_in_row(v, ua, ub) as u64;
     }
-    let union = obs.mask_rows.count as u64 + hull_n - inter;
+    // Silhouette pixels outside the mask that an occluder or missing depth explains are not
+    // disagreement: leave them out of the union.
+    let union = (obs.mask_rows.count as u64 + hull_n).saturating_sub(inter + explained);
     if union == 0 {
         0.0
     } else {
