@@ -701,3 +701,50 @@ fn wrong_template_sizes_keep_the_rotation() {
         }
     }
 }
+
+/// Report (needs the shared real data): `estimate_pose` with the true size and the BOP visible
+/// masks on the ycbv-boxes frames.
+/// `cargo test -p anybox --release --lib pose::tests::report_ycbv_boxes -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn report_ycbv_boxes() {
+    let root = std::path::Path::new("/work/shared/data/ycbv-boxes");
+    let ds = anybox_io::bop::BopDataset::open(root, "test").unwrap();
+    let cfg = PoseConfig::default();
+    for v in &ds.views {
+        let frame = v.load_frame().unwrap();
+        for g in &v.gts {
+            let mask = v.load_mask_visib(g.gt_index).unwrap();
+            let obs = match observe(
+                &frame.depth,
+                &frame.intrinsics,
+                &mask,
+                &ObservationConfig::default(),
+            ) {
+                Ok(o) => o,
+                Err(e) => {
+                    println!("im {} obj {}: {e}", v.im_id, g.obj_id);
+                    continue;
+                }
+            };
+            let c0 = thread_cpu_ns();
+            let e = estimate_pose(
+                &obs,
+                &frame.depth,
+                &frame.intrinsics,
+                &g.pose.size_mm,
+                None,
+                &cfg,
+            )
+            .unwrap();
+            let cpu = (thread_cpu_ns() - c0) as f64 / 1e6;
+            println!(
+                "im {} obj {} visib {:.2} pts {}: rot {:.1}° trans {:.1} mm (z {:.0}) score {:.3} iou {:.2} inl {:.2} pen {:.2} [{cpu:.1} ms CPU]",
+                v.im_id, g.obj_id, g.visib_fract, obs.points_mm.len(),
+                anybox_geom::symmetry::rotation_error_deg(&e.pose, &g.pose),
+                (e.pose.center_mm - g.pose.center_mm).norm(), g.pose.center_mm.z,
+                e.score, e.silhouette_iou, e.inlier_fraction, e.depth_penalty
+            );
+        }
+    }
+}
