@@ -1,12 +1,18 @@
 //! Every parameter of the estimator in one [`Config`] (issue #3 "Config").
 //!
-//! `Config::default()` is the paper's method (SPEC §1, paper §3) — Algorithm 1 with Algorithm 2
-//! (early stopping), the depth-consistency filter on — plus anybox's hidden-dimension context
-//! (which only touches axes the paper leaves undetermined). [`Config::paper`] switches the context
-//! off too; [`Config::anybox`] is anybox's best measured setting (point-fit scale mode). The
-//! builders [`Config::no_depth_filter`], [`Config::binary_search_only`], [`Config::canonical`]
-//! and [`Config::oracle`] give the paper's ablations. Each default is documented (with its source)
-//! on the field of the stage's own config type.
+//! Every numeric default is the paper's value where the paper gives one (τ_px = 10 px, depth
+//! filter 5 px cells / 1000 samples / threshold 0, …), documented with its source on the field of
+//! the stage's own config type.
+//!
+//! - [`Config::paper`]: the paper's method exactly (SPEC §1, paper §3) — Algorithm 1 with
+//!   Algorithm 2 (early stopping) from the canonical template, depth-consistency filter on, no
+//!   hidden-dimension context. The builders [`Config::no_depth_filter`],
+//!   [`Config::binary_search_only`], [`Config::canonical`] and [`Config::oracle`] give the
+//!   paper's ablations (apply them to `Config::paper()`).
+//! - `Config::default()` (= [`Config::anybox`]): anybox's best measured setting — the point-fit
+//!   scale mode ([`ScaleMode::PointFit`]) and scene context for hidden dimensions. On the
+//!   synthetic bench (GT masks, visibility ≥ 0.5) it roughly doubles the share of boxes above
+//!   IoU 0.7 compared with the paper's mode, at the same or lower time.
 //!
 //! Serde: a config round-trips through JSON; missing fields take their defaults, so a JSON file
 //! passed from the CLI need only name what it changes, e.g. `{"scale": {"mode": "point-fit"}}`.
@@ -52,18 +58,19 @@ impl Default for Config {
 }
 
 impl Config {
-    /// The paper exactly: Algorithms 1 + 2, depth filter on, no hidden-dimension context.
+    /// The paper exactly: Algorithms 1 + 2 from the canonical template, depth filter on, no
+    /// hidden-dimension context.
     pub fn paper() -> Self {
         let mut c = Self::default();
+        c.scale.mode = ScaleMode::EarlyStopping;
         c.context.enabled = false;
         c
     }
 
-    /// anybox's best setting: [`ScaleMode::PointFit`] with scene context for hidden dimensions.
+    /// anybox's best setting (the default): [`ScaleMode::PointFit`] with scene context for
+    /// hidden dimensions.
     pub fn anybox() -> Self {
-        let mut c = Self::default();
-        c.scale.mode = ScaleMode::PointFit;
-        c
+        Self::default()
     }
 
     /// Ablation: the depth-consistency filter off (paper Table "depth filter").

@@ -65,6 +65,17 @@ pub struct ContextConfig {
     /// The support's points must spread at least this much (std, mm) in both in-plane
     /// directions: a thin strip (a shelf board's front edge, a box edge) is no support.
     pub min_plane_spread_mm: f64,
+    /// A support needs at least this fraction of the ring samples in the searched range (10 %;
+    /// on the synthetic bench it removes neighbours' small faces taken for supports).
+    pub min_support_fraction: f64,
+    /// Pick the candidate plane with the most points (true) rather than the nearest (false).
+    pub support_largest: bool,
+    /// A support is accepted only when the hidden extent it implies lies within these multiples
+    /// of the smaller observed dimension ([0.4, 2]: on the synthetic bench this lifted AP-like
+    /// recall at IoU 0.5 over all boxes from 0.75 to 0.84).
+    pub support_ratio: [f64; 2],
+    /// Fallback hidden extent as a multiple of the smaller observed dimension.
+    pub fallback_ratio: f64,
     /// Visible faces within this distance along their common normal form one layer, mm.
     pub layer_tol_mm: f64,
 }
@@ -84,6 +95,10 @@ impl Default for ContextConfig {
             min_support_points: 25,
             plane_max_tilt_deg: 15.0,
             min_plane_spread_mm: 15.0,
+            min_support_fraction: 0.1,
+            support_largest: false,
+            support_ratio: [0.4, 2.0],
+            fallback_ratio: 1.0,
             layer_tol_mm: 20.0,
         }
     }
@@ -256,13 +271,18 @@ pub fn find_support(
             }
         }
     }
-    // Nearest bin (with both neighbours) holding enough points and forming a plane facing `u`.
+    // Candidate clusters (bin with both neighbours) holding enough points and forming a plane
+    // facing `u`; then the nearest (or the largest, per config) is the support.
     let cos_tilt = cfg.plane_max_tilt_deg.to_radians().cos();
+    let min_pts = cfg
+        .min_support_points
+        .max((cfg.min_support_fraction * ring.len() as f64).ceil() as usize);
+    let mut cands: Vec<Support> = Vec::new();
     let mut b = 0;
     while b < nbins {
         let c =
             hist[b] + if b > 0 { hist[b - 1] } else { 0 } + hist.get(b + 1).copied().unwrap_or(0);
-        if c < cfg.min_support_points || hist[b] == 0 {
+        if c < min_pts || hist[b] == 0 {
             b += 1;
             continue;
         }
@@ -280,18 +300,26 @@ pub fn find_support(
             // A real support is a surface, not a thin strip (a shelf board's front edge).
             if c >= cos_tilt && spread >= cfg.min_plane_spread_mm {
                 let mut ts: Vec<f64> = sel.iter().map(|(t, _)| *t).collect();
-                let off = median(&mut ts)?;
-                return Some(Support {
-                    offset_mm: off,
-                    n_points: sel.len(),
-                    tilt_deg: c.clamp(-1.0, 1.0).acos().to_degrees(),
-                });
+                if let Some(off) = median(&mut ts) {
+                    cands.push(Support {
+                        offset_mm: off,
+                        n_points: sel.len(),
+                        tilt_deg: c.clamp(-1.0, 1.0).acos().to_degrees(),
+                    });
+                    if !cfg.support_largest {
+                        break;
+                    }
+                }
             }
         }
-        // Not a plane facing the axis (e.g. a wall crossing the slab): continue beyond the cluster.
+        // Continue beyond this cluster.
         b = pk + 2;
     }
-    None
+    if cfg.support_largest {
+        cands.into_iter().max_by_key(|c| c.n_points)
+    } else {
+        cands.into_iter().next()
+    }
 }
 
 /// Least-squares plane of a point set: `(unit normal, std across the plane, smaller std within
@@ -364,18 +392,25 @@ pub fn infer_hidden(
             inputs.mask,
             cfg,
         );
-        match found {
+        let others: Vec<f64> = (0..3)
+            .filter(|&b| b != a && observed[b])
+            .map(|b| pose.size_mm[b])
+            .collect();
+        let prior = others.iter().copied().reduce(f64::min);
+        // A support implying a box far out of proportion with its visible sides is more likely
+        // a neighbour's face or a farther surface than the true support.
+        let plausible = |t: f64| match prior {
+            Some(p) => t >= cfg.support_ratio[0] * p && t <= cfg.support_ratio[1] * p,
+            None => true,
+        };
+        match found.filter(|s| plausible(s.offset_mm)) {
             Some(s) => {
                 size[a] = s.offset_mm;
                 src[a] = HiddenSource::Support;
             }
             None => {
-                let others: Vec<f64> = (0..3)
-                    .filter(|&b| b != a && observed[b])
-                    .map(|b| pose.size_mm[b])
-                    .collect();
-                if let Some(m) = others.iter().copied().reduce(f64::min) {
-                    size[a] = m;
+                if let Some(m) = prior {
+                    size[a] = cfg.fallback_ratio * m;
                 }
                 src[a] = HiddenSource::Fallback;
             }

@@ -352,8 +352,8 @@ mod tests {
         // bench); they must still find the box.
         for (cfg, min_iou) in [
             (Config::anybox(), 0.85),
-            (Config::default(), 0.4),
-            (Config::default().binary_search_only(), 0.4),
+            (Config::paper(), 0.4),
+            (Config::paper().binary_search_only(), 0.4),
         ] {
             let e = estimate_box(&depth, &k, &masks[0], &cfg).unwrap();
             let i = iou(&e.pose, &gt);
@@ -369,7 +369,7 @@ mod tests {
             &depth,
             &k,
             &masks[0],
-            &Config::default().oracle([240.0, 160.0, 110.0]),
+            &Config::paper().oracle([240.0, 160.0, 110.0]),
         )
         .unwrap();
         assert!(iou(&e.pose, &gt) > 0.9);
@@ -382,7 +382,9 @@ mod tests {
         // Straight from above: only the top face is visible.
         let (gt, table) = table_scene(size, 0.3, 90.0, 1100.0);
         let (depth, masks) = render(&[gt], &[table], &k, 640, 480);
-        for cfg in [Config::anybox(), Config::default()] {
+        let mut es_ctx = Config::paper();
+        es_ctx.context.enabled = true;
+        for cfg in [Config::anybox(), es_ctx] {
             let e = estimate_box(&depth, &k, &masks[0], &cfg).unwrap();
             // Which canonical axis is vertical?
             let up = gt.axis(2);
@@ -478,17 +480,33 @@ mod bench {
         let modes: Vec<(&str, Config)> = vec![
             ("paper-es", Config::paper()),
             ("paper-bs", Config::paper().binary_search_only()),
-            ("es+ctx", Config::default()),
-            ("pointfit", Config::anybox()),
-            ("canonical", Config::paper().canonical()),
-            ("pf-edge0", {
-                let mut c = Config::anybox();
-                c.scale.maskfit_edge_px = 0.0;
+            ("es+ctx", {
+                let mut c = Config::paper();
+                c.context.enabled = true;
                 c
             }),
-            ("pf-edge.5", {
+            ("pointfit", Config::anybox()),
+            ("canonical", Config::paper().canonical()),
+            ("pf-ratio", {
                 let mut c = Config::anybox();
-                c.scale.maskfit_edge_px = 0.5;
+                c.context.min_support_fraction = 0.1;
+                c.context.support_ratio = [0.4, 2.0];
+                c
+            }),
+            ("pf-ratio2", {
+                let mut c = Config::anybox();
+                c.context.min_support_fraction = 0.1;
+                c.context.support_ratio = [0.4, 1.5];
+                c
+            }),
+            ("pf-frac10", {
+                let mut c = Config::anybox();
+                c.context.min_support_fraction = 0.1;
+                c
+            }),
+            ("pf-noctx", {
+                let mut c = Config::anybox();
+                c.context.enabled = false;
                 c
             }),
             ("pf-it5", {
