@@ -4,19 +4,35 @@
 //! pose (the previous estimate inside the scale-search loop). Out: a [`PoseEstimate`].
 //!
 //! Stages (SPEC §1):
+//! 0. size-independent analysis, cached in the observation on the first call: face planes
+//!    (normal clusters + RANSAC + PCA), candidate frames, a depth-noise estimate σ̂ from the
+//!    plane residuals (thresholds below are raised to multiples of σ̂, `noise_scale`), and the
+//!    depth cells of the filter;
 //! 1. hypotheses ([`crate::hypotheses`]): geometric frames × 6 axis assignments, placed behind the
-//!    visible faces; with a prior, the prior and its axis assignments too;
-//! 2. cheap coarse score: mean truncated distance of ~150 observed points to the hypothesis'
-//!    camera-facing surface, divided by the truncation (so in [0, 1], lower is better);
+//!    visible faces; with a prior, the prior itself and, per frame, only the assignment closest to
+//!    the prior (`HypothesisConfig::prior_restricts`);
+//! 2. every hypothesis is translation-aligned (`coarse_align_iters` robust steps) to ~150
+//!    observed points, then gets a cheap coarse score: the mean truncated distance of those points
+//!    to its camera-facing surface divided by the truncation (in [0, 1], lower is better);
 //! 3. depth-consistency penalty ([`crate::depth_filter`], the paper's filter) added to the coarse
 //!    score to re-rank (`key = coarse + rank_weight · penalty`; switched off by
 //!    `depth_filter.enabled = false`, the paper's ablation);
-//! 4. the `top_k` best keys are refined by robust ICP ([`crate::refine`]);
+//! 4. for each of the `top_k` best keys (plus, with a prior, the best one keeping the prior's axes):
+//!    placement variants along axes seen edge-on whose observed extent is shorter than the
+//!    template (occlusion, wrong size) are compared by a quick score, the best is refined by
+//!    robust ICP ([`crate::refine`]);
 //! 5. ranking by confidence `score = inlier_fraction · silhouette_iou · (1 − depth_penalty)` (the
 //!    last factor only when the filter is enabled), all three in [0, 1]. The silhouette is the
-//!    convex hull of the projected corners, compared with the observed mask by IoU.
+//!    convex hull of the projected corners, compared with the observed mask by an
+//!    occlusion-aware IoU ([`silhouette_iou`]). With a prior, a result that changes the prior's
+//!    axis assignment must win by `prior_switch_margin`; the returned rotation is the symmetric
+//!    variant closest to the prior, so the loop's rotation-change test sees no spurious flips.
 //!
 //! Deterministic: every random choice uses fixed seeds from the config.
+//!
+//! Measured (release, one 2-core machine under load, thread CPU time, ~18k-point observation):
+//! `observe` ≈ 2–3.5 ms, `estimate_pose` ≈ 1 ms without a prior, ≈ 0.6 ms with one; the SCALE
+//! pipeline's whole loop (3 pose calls) ≈ 7.7 ms. See the ignored `report_*` tests.
 
 use std::borrow::Cow;
 
@@ -444,7 +460,8 @@ fn adapt_to_noise(cfg: &PoseConfig, noise_mm: f64) -> PoseConfig {
 ///
 /// Errors: [`EstimateError::BadTemplateSize`] for a non-finite or non-positive size,
 /// [`EstimateError::SizeMismatch`] when the depth map and the observation's mask differ in size,
-/// [`EstimateError::TooFewPoints`] for an observation with < 3 points,
+/// [`EstimateError::TooFewPoints`] for an observation with < 3 points, [`EstimateError::Geom`]
+/// for invalid intrinsics,
 /// [`EstimateError::NoHypothesis`] if nothing could be scored.
 pub fn estimate_pose(
     obs: &Observation,
@@ -460,6 +477,7 @@ pub fn estimate_pose(
         ]));
     }
     crate::observation::check_sizes(depth, &obs.mask)?;
+    Intrinsics::new(intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy)?;
     if obs.subsample.len() < 3
         || obs.points_mm.len() != obs.normals.len()
         || obs.subsample.iter().any(|&i| i >= obs.points_mm.len())

@@ -748,3 +748,56 @@ fn report_ycbv_boxes() {
         }
     }
 }
+
+#[test]
+fn garbage_inputs_never_panic() {
+    // Random masks over random depth with hostile values: every call returns Ok or Err.
+    let mut rng = ChaCha8Rng::seed_from_u64(99);
+    let k = Intrinsics::new(300.0, 300.0, 40.0, 30.0).unwrap();
+    let hostile = [
+        0.0f32,
+        -5.0,
+        f32::NAN,
+        f32::INFINITY,
+        1e30,
+        1e-30,
+        500.0,
+        501.0,
+        3000.0,
+    ];
+    let (mut observed, mut estimated) = (0, 0);
+    for trial in 0..60 {
+        let (w, h) = (80u32, 60u32);
+        let mut depth = DepthMap::zeros(w, h);
+        let mut mask = Mask::empty(w, h);
+        let density: f64 = rng.random();
+        for i in 0..(w * h) as usize {
+            depth.depth_mm[i] = if rng.random::<f64>() < 0.2 {
+                hostile[rng.random_range(0..hostile.len())]
+            } else {
+                400.0 + 200.0 * rng.random::<f32>()
+            };
+            mask.data[i] = rng.random::<f64>() < density;
+        }
+        let Ok(obs) = observe(&depth, &k, &mask, &ObservationConfig::default()) else {
+            continue;
+        };
+        observed += 1;
+        let sizes = [
+            Vector3::new(100.0, 50.0, 30.0),
+            Vector3::new(1e-6, 1e-6, 1e-6),
+            Vector3::new(1e12, 1.0, 1.0),
+        ];
+        let s = sizes[trial % sizes.len()];
+        if let Ok(e) = estimate_pose(&obs, &depth, &k, &s, None, &PoseConfig::default()) {
+            assert!((0.0..=1.0).contains(&e.score), "score {}", e.score);
+            estimated += 1;
+            let _ = estimate_pose(&obs, &depth, &k, &s, Some(&e.pose), &PoseConfig::default());
+        }
+    }
+    // The loop must actually reach the estimator, not just bounce off observe.
+    assert!(
+        observed >= 20 && estimated >= 10,
+        "{observed} observed, {estimated} estimated"
+    );
+}
