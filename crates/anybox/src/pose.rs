@@ -96,6 +96,9 @@ pub struct PoseConfig {
     /// With a prior: a result that changes the axis assignment must beat the best one that
     /// keeps it by this fraction of its score. Default 0.1.
     pub prior_switch_margin: f64,
+    /// Without a prior, candidates are ranked by `score · size_agreement^weight` (see
+    /// [`size_agreement`]); the reported score stays the plain confidence. Default 1; 0 = off.
+    pub size_agreement_weight: f64,
     /// The depth-cell region is the mask's bounding box grown by this fraction of its larger
     /// side on every side. Default 1.0.
     pub region_margin: f64,
@@ -116,6 +119,7 @@ impl Default for PoseConfig {
             noise_scale: 1.0,
             prior_gate_deg: 20.0,
             prior_switch_margin: 0.1,
+            size_agreement_weight: 1.0,
             region_margin: 1.0,
         }
     }
@@ -439,6 +443,27 @@ pub fn closest_variant(pose: &OrientedBox, reference: &Rotation3<f64>) -> Orient
     best
 }
 
+/// Agreement in [0, 1] between the template's extents and the observed points' robust extents
+/// along the pose's axes: `Π_k min(e_k, s_k) / max(e_k, s_k)`. With a wrong (canonical) template
+/// it prefers the axis assignment whose size order matches the observation — long template side
+/// on the long observed side, short template side on a hidden or short one — which is the
+/// assignment a per-axis scale search can correct.
+pub fn size_agreement(obs: &Observation, pose: &OrientedBox, cfg: &HypothesisConfig) -> f64 {
+    let mut scratch = Vec::with_capacity(obs.subsample.len());
+    let mut a = 1.0;
+    for k in 0..3 {
+        let (lo, hi) = robust_extent(obs, &pose.axis(k), cfg.extent_trim, &mut scratch);
+        // A hidden axis still has a few mm of extent from noise; floor it.
+        let e = (hi - lo).max(1.0);
+        let s = pose.size_mm[k];
+        let r = e.min(s) / e.max(s);
+        if r.is_finite() {
+            a *= r;
+        }
+    }
+    a
+}
+
 /// `cfg` with its distance thresholds raised to the estimated depth noise (`noise_scale`).
 fn adapt_to_noise(cfg: &PoseConfig, noise_mm: f64) -> PoseConfig {
     let mut c = cfg.clone();
@@ -553,8 +578,14 @@ pub fn estimate_pose(
         if !score.is_finite() {
             continue;
         }
-        let rank_score = if prior.is_some() && !near_prior(&pose) {
-            score * (1.0 - cfg.prior_switch_margin)
+        let rank_score = if prior.is_some() {
+            if near_prior(&pose) {
+                score
+            } else {
+                score * (1.0 - cfg.prior_switch_margin)
+            }
+        } else if cfg.size_agreement_weight > 0.0 {
+            score * size_agreement(obs, &pose, &cfg.hypotheses).powf(cfg.size_agreement_weight)
         } else {
             score
         };

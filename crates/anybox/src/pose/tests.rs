@@ -801,3 +801,111 @@ fn garbage_inputs_never_panic() {
         "{observed} observed, {estimated} estimated"
     );
 }
+
+/// Report: the SCALE pipeline on synthetic scenes with variants of the pose config (median
+/// IoU of the final boxes), to see which pose-stage choices help the whole loop.
+#[test]
+#[ignore]
+fn report_pipeline_pose_variants() {
+    use anybox_synth::{generate_view, SynthConfig};
+    let scfg = SynthConfig {
+        scenes: 8,
+        views: 1,
+        ..Default::default()
+    };
+    let views: Vec<_> = (0..scfg.scenes)
+        .map(|s| generate_view(&scfg, s, 0))
+        .collect();
+    let base = crate::config::Config::default();
+    let mut variants: Vec<(&str, crate::config::Config)> =
+        vec![("oracle size", base.clone()), ("default", base.clone())];
+    let mut c = base.clone();
+    c.pose.hypotheses.prior_restricts = false;
+    variants.push(("no prior restriction", c));
+    let mut c = base.clone();
+    c.pose.size_agreement_weight = 0.0;
+    variants.push(("no size agreement", c));
+    let mut c = base.clone();
+    c.pose.variant_cos = 0.0;
+    variants.push(("no placement variants", c));
+    let mut c = base.clone();
+    c.pose.coarse_align_iters = 0;
+    variants.push(("no pre-alignment", c));
+    let mut c = base.clone();
+    c.pose.noise_scale = 0.0;
+    variants.push(("no noise adaptation", c));
+    for (name, cfg) in &variants {
+        let mut all = Vec::new();
+        let c0 = thread_cpu_ns();
+        let mut n = 0;
+        for v in &views {
+            for b in v.boxes.iter().filter(|b| b.visib_fract >= 0.5) {
+                let cfg = if *name == "oracle size" {
+                    &cfg.clone()
+                        .oracle([b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z])
+                } else {
+                    cfg
+                };
+                let i = crate::pipeline::estimate_box(&v.depth, &v.intrinsics, &b.mask_visib, cfg)
+                    .map(|e| {
+                        anybox_geom::iou::iou(&e.pose, &b.pose, anybox_geom::iou::IouMethod::Exact)
+                    })
+                    .unwrap_or(0.0);
+                all.push(i);
+                n += 1;
+            }
+        }
+        let cpu = (thread_cpu_ns() - c0) as f64 / 1e6 / n as f64;
+        all.sort_by(f64::total_cmp);
+        println!(
+            "{name}: n {n}, median IoU {:.3}, share > 0.5 {:.2}, {cpu:.1} ms CPU/box",
+            all[all.len() / 2],
+            all.iter().filter(|x| **x > 0.5).count() as f64 / n as f64
+        );
+    }
+}
+
+/// Report: frame error (rotation modulo axis relabeling) of the first, prior-free call with the
+/// canonical template on synthetic scenes — what the scale loop starts from.
+#[test]
+#[ignore]
+fn report_canonical_first_call() {
+    use anybox_synth::{generate_view, SynthConfig};
+    let scfg = SynthConfig {
+        scenes: 8,
+        views: 1,
+        ..Default::default()
+    };
+    let cfg = PoseConfig::default();
+    let t = Vector3::new(300.0, 200.0, 150.0);
+    let mut errs = Vec::new();
+    for s in 0..scfg.scenes {
+        let v = generate_view(&scfg, s, 0);
+        for b in v.boxes.iter().filter(|b| b.visib_fract >= 0.5) {
+            let Ok(obs) = observe(
+                &v.depth,
+                &v.intrinsics,
+                &b.mask_visib,
+                &ObservationConfig::default(),
+            ) else {
+                continue;
+            };
+            let e = estimate_pose(&obs, &v.depth, &v.intrinsics, &t, None, &cfg).unwrap();
+            let fe = frame_err_deg(&e.pose, &b.pose);
+            let fr = frame_err_deg(
+                &estimate_pose(&obs, &v.depth, &v.intrinsics, &b.pose.size_mm, None, &cfg)
+                    .unwrap()
+                    .pose,
+                &b.pose,
+            );
+            println!("scene {s} {:?} size {:?} visib {:.2}: canonical frame err {fe:.1}°, true-size frame err {fr:.1}°", v.layout, b.pose.size_mm.as_slice(), b.visib_fract);
+            errs.push(fe);
+        }
+    }
+    errs.sort_by(f64::total_cmp);
+    println!(
+        "median {:.2}°, p90 {:.2}°",
+        errs[errs.len() / 2],
+        errs[errs.len() * 9 / 10]
+    );
+}
