@@ -184,7 +184,7 @@ fn dump_labels(
             } else if l == u32::MAX {
                 p.0 = [255, 255, 255];
             } else {
-                let h = l.wrapping_mul(2654435761);
+                let h = (l + 1).wrapping_mul(2654435761);
                 p.0 = [(h >> 24) as u8, (h >> 16) as u8, (h >> 8) as u8];
             }
         }
@@ -228,6 +228,11 @@ fn main() {
             let t0 = Instant::now();
             let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg).expect("detect");
             let ms = t0.elapsed().as_secs_f64() * 1e3;
+            if std::env::var("VERBOSE").is_ok() {
+                for d in &dets {
+                    println!("  {name} s{s} det score {:.3} faces {} px {} bbox {:?}", d.score, d.n_faces, d.mask.count(), d.mask.bbox());
+                }
+            }
             tally.times_ms.push(ms);
             total.times_ms.push(ms);
             let gts: Vec<(Mask, f64)> = v

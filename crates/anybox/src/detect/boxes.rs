@@ -14,9 +14,11 @@
 
 use std::collections::BTreeMap;
 
-use anybox_geom::projection::{ray_box_intersection, rasterize_convex_polygon, silhouette_hull_px};
+use anybox_geom::projection::{
+    convex_hull_2d, ray_box_intersection, rasterize_convex_polygon, silhouette_hull_px,
+};
 use anybox_geom::OrientedBox;
-use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
+use nalgebra::{Matrix3, Point2, Point3, Rotation3, Vector3};
 
 use super::grid::Grid;
 use super::regions::{fit_regions, plane_tol, Region, NONE};
@@ -37,8 +39,11 @@ fn v3(p: &[f32; 3]) -> Vector3<f64> {
 }
 
 /// Support planes (floor, table, shelf boards, walls): a planar surface of at least
-/// `support_min_area_mm2` with at least as many cells in front of it as behind it (things stand
-/// on a support; a box face has the box's body behind it). Returns, per cell, whether it belongs
+/// `support_always_area_mm2`, or of at least `support_min_area_mm2` with things standing on it
+/// (cells in front of the plane, within `support_window_mm`, whose foot lies inside the
+/// surface's convex footprint, at least `support_min_front_fraction` of its cells), or with
+/// almost nothing behind it (fewer than `support_max_behind_fraction` of the valid cells: it
+/// bounds the scene, like a floor or a wall). Returns, per cell, whether it belongs
 /// to such a surface, and the support planes themselves (their fragments between boxes are
 /// dropped later by [`drop_support_fragments`]).
 pub(crate) fn support_mask(
@@ -49,31 +54,23 @@ pub(crate) fn support_mask(
 ) -> (Vec<bool>, Vec<Region>) {
     let mut is_support = vec![false; surfaces.len()];
     let mut planes = Vec::new();
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); surfaces.len()];
+    for (i, &l) in surface_labels.iter().enumerate() {
+        if l != NONE {
+            members[l as usize].push(i);
+        }
+    }
     for (r, reg) in surfaces.iter().enumerate() {
         if reg.area_mm2 < cfg.support_min_area_mm2 || reg.inlier_frac < cfg.min_plane_inlier_frac
         {
             continue;
         }
-        let (mut front, mut behind) = (0usize, 0usize);
-        for (i, &z) in g.z.iter().enumerate() {
-            if z <= 0.0 {
-                continue;
-            }
-            let d = reg.dist(&g.p[i]);
-            if d.abs() > cfg.support_window_mm {
-                continue;
-            }
-            if d > cfg.support_side_margin_mm {
-                front += 1;
-            } else if d < -cfg.support_side_margin_mm {
-                behind += 1;
-            }
-        }
-        if front >= behind {
+        if is_support_plane(g, reg, &members[r], cfg) {
             is_support[r] = true;
             planes.push(reg.clone());
         }
     }
+    planes.extend(ransac_supports(g, cfg));
     let on = surface_labels
         .iter()
         .map(|&l| l != NONE && is_support[l as usize])
@@ -112,6 +109,172 @@ pub(crate) fn drop_support_fragments(
                 })
         })
         .collect()
+}
+
+/// Whether a plane (with its member cells) is a support: at least `support_always_area_mm2`,
+/// or things standing on it, or (almost) nothing behind it.
+fn is_support_plane(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) -> bool {
+    if reg.area_mm2 >= cfg.support_always_area_mm2 {
+        return true;
+    }
+    // Things standing on the plane: cells in front of it whose foot (projection onto the
+    // plane) lies inside the member cells' convex footprint.
+    let t = if reg.normal.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    // |normal × t| ≥ sin(25°) by the choice of t.
+    let e1 = reg.normal.cross(&t).normalize();
+    let e2 = reg.normal.cross(&e1);
+    let to2 = |p: &Vector3<f64>| {
+        let d = p - reg.centroid;
+        Point2::new(d.dot(&e1), d.dot(&e2))
+    };
+    let pts: Vec<Point2<f64>> = cells
+        .iter()
+        .step_by(4)
+        .map(|&i| to2(&v3(&g.p[i])))
+        .collect();
+    let hull = convex_hull_2d(&pts);
+    let (mut front, mut behind, mut valid) = (0usize, 0usize, 0usize);
+    for (i, &z) in g.z.iter().enumerate() {
+        if z <= 0.0 {
+            continue;
+        }
+        valid += 1;
+        let d = reg.dist(&g.p[i]);
+        if d < -cfg.support_side_margin_mm {
+            behind += 1;
+        }
+        if d <= cfg.support_side_margin_mm || d > cfg.support_window_mm {
+            continue;
+        }
+        if inside_convex(&hull, &to2(&v3(&g.p[i]))) {
+            front += 1;
+        }
+    }
+    // A plane with (almost) nothing behind it bounds the scene: floor, wall.
+    front as f64 >= cfg.support_min_front_fraction * cells.len() as f64
+        || (behind as f64) < cfg.support_max_behind_fraction * valid as f64
+}
+
+/// Dominant planes by RANSAC over all cells (deterministic), kept when they are supports: finds
+/// floors and tables that sensor noise or texture cut into many small surfaces.
+fn ransac_supports(g: &Grid, cfg: &DetectConfig) -> Vec<Region> {
+    let mut pool: Vec<usize> = (0..g.z.len()).filter(|&i| g.z[i] > 0.0).step_by(3).collect();
+    let mut out = Vec::new();
+    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut next = |n: usize| -> usize {
+        // SplitMix64: a fixed, seedless stream keeps the detector deterministic.
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) % n.max(1) as u64) as usize
+    };
+    let cell_area = 1.0 / (g.k.fx * g.k.fy);
+    let cos_n = cfg.support_normal_tol_deg.to_radians().cos();
+    let fits = |i: usize, c: &Vector3<f64>, n: &Vector3<f64>| -> bool {
+        let p = v3(&g.p[i]);
+        let z = p.z;
+        if (p - c).dot(n).abs() > cfg.support_tol_factor * plane_tol(cfg, z) {
+            return false;
+        }
+        let cn = v3(&g.n[i]);
+        cn.norm_squared() < 0.5 || cn.dot(n) >= cos_n
+    };
+    for _ in 0..cfg.support_ransac_planes {
+        if pool.len() < 3 {
+            break;
+        }
+        let mut best: Option<(usize, Vector3<f64>, Vector3<f64>)> = None;
+        for _ in 0..cfg.support_ransac_iters {
+            let (a, b, c) = (
+                v3(&g.p[pool[next(pool.len())]]),
+                v3(&g.p[pool[next(pool.len())]]),
+                v3(&g.p[pool[next(pool.len())]]),
+            );
+            let Some(mut n) = (b - a).cross(&(c - a)).try_normalize(1e-9) else {
+                continue;
+            };
+            if n.dot(&a) > 0.0 {
+                n = -n;
+            }
+            let count = pool.iter().step_by(8).filter(|&&i| fits(i, &a, &n)).count();
+            if best.as_ref().is_none_or(|b| count > b.0) {
+                best = Some((count, a, n));
+            }
+        }
+        let Some((_, c, n)) = best else {
+            break;
+        };
+        let inl: Vec<usize> = pool.iter().copied().filter(|&i| fits(i, &c, &n)).collect();
+        if inl.len() < 3 {
+            break;
+        }
+        // Refit on the inliers.
+        let m = inl.len() as f64;
+        let centroid = inl.iter().map(|&i| v3(&g.p[i])).sum::<Vector3<f64>>() / m;
+        let mut cov = Matrix3::zeros();
+        for &i in &inl {
+            let d = v3(&g.p[i]) - centroid;
+            cov += d * d.transpose();
+        }
+        let eig = cov.symmetric_eigen();
+        let k = eig.eigenvalues.imin();
+        let mut normal: Vector3<f64> = eig.eigenvectors.column(k).into_owned();
+        if normal.dot(&centroid) > 0.0 {
+            normal = -normal;
+        }
+        // Pool cells are every third cell: scale the area back.
+        let area: f64 = inl
+            .iter()
+            .map(|&i| {
+                let p = v3(&g.p[i]);
+                let cos = p.normalize().dot(&normal).abs().max(0.2);
+                3.0 * p.z * p.z * cell_area / cos
+            })
+            .sum();
+        let reg = Region {
+            n: inl.len(),
+            centroid,
+            normal,
+            inlier_frac: 1.0,
+            normal_spread_deg: 0.0,
+            colour: [0.0; 3],
+            area_mm2: area,
+        };
+        if area < cfg.support_min_area_mm2 {
+            break;
+        }
+        if is_support_plane(g, &reg, &inl, cfg) {
+            out.push(reg);
+        }
+        let taken: std::collections::BTreeSet<usize> = inl.into_iter().collect();
+        pool.retain(|i| !taken.contains(i));
+    }
+    out
+}
+
+/// Point in a convex polygon (either orientation).
+fn inside_convex(poly: &[Point2<f64>], p: &Point2<f64>) -> bool {
+    if poly.len() < 3 {
+        return false;
+    }
+    let mut sign = 0.0f64;
+    for k in 0..poly.len() {
+        let a = poly[k];
+        let b = poly[(k + 1) % poly.len()];
+        let c = (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
+        if c != 0.0 {
+            if sign != 0.0 && c.signum() != sign {
+                return false;
+            }
+            sign = c.signum();
+        }
+    }
+    true
 }
 
 /// Removes support cells from a labelling: regions mostly on a support go entirely, others
@@ -182,6 +345,8 @@ pub(crate) struct Raw {
     pub bx: OrientedBox,
     /// Mean colour of the largest face.
     pub colour: [f64; 3],
+    /// Plane normal of the largest face.
+    pub normal: Vector3<f64>,
 }
 
 /// Groups faces into box candidates and scores them. Returns candidates sorted by score.
@@ -228,7 +393,14 @@ pub(crate) fn group_candidates(
                     let (ra, rb) = (&regions[a as usize], &regions[b as usize]);
                     let zi = g.z[i] as f64;
                     let tol = cfg.edge_tol_factor * plane_tol(cfg, zi);
-                    if rb.dist(&g.p[i]).abs() <= tol && ra.dist(&g.p[j]).abs() <= tol {
+                    // Near in 3D (no occluding jump across the band), and each cell no farther
+                    // from the other face's plane than from the other cell: they meet at an edge.
+                    let d3 = (v3(&g.p[i]) - v3(&g.p[j])).norm();
+                    let cell_mm = zi / g.k.fx;
+                    if d3 <= 3.0 * d as f64 * cell_mm + tol
+                        && rb.dist(&g.p[i]).abs() <= d3 + tol
+                        && ra.dist(&g.p[j]).abs() <= d3 + tol
+                    {
                         *contact.entry((a.min(b), a.max(b))).or_insert(0) += 1;
                     }
                     break;
@@ -265,6 +437,24 @@ pub(crate) fn group_candidates(
         let (la, lb) = (extent_along(a, &e), extent_along(b, &e));
         la.min(lb) >= cfg.edge_length_ratio * la.max(lb)
     };
+    if std::env::var("DETECT_DEBUG").is_ok() {
+        for (&(a, b), &c) in &contact {
+            let (ra, rb) = (&regions[a as usize], &regions[b as usize]);
+            let e = ra.normal.cross(&rb.normal);
+            let e = e.normalize();
+            eprintln!(
+                "pair {a}({}) {b}({}) contacts {c} dot {:.2} convex {:.0} {:.0} edge {:.0} {:.0} compat {}",
+                ra.n,
+                rb.n,
+                ra.normal.dot(&rb.normal),
+                (rb.centroid - ra.centroid).dot(&ra.normal),
+                (ra.centroid - rb.centroid).dot(&rb.normal),
+                extent_along(a as usize, &e),
+                extent_along(b as usize, &e),
+                compatible(a as usize, b as usize)
+            );
+        }
+    }
     let mut pairs: Vec<((u32, u32), u32)> = contact
         .iter()
         .filter(|(_, &c)| c >= cfg.min_contact_cells)
@@ -502,5 +692,6 @@ fn score_group(
         n_faces: mem.len() as u8,
         bx,
         colour: regions[big].colour,
+        normal: regions[big].normal,
     })
 }

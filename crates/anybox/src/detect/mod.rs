@@ -71,12 +71,25 @@ pub struct DetectConfig {
     /// Planar regions at least this large are support candidates (floor, table top, shelf board,
     /// wall), mm². Default 250 000 (0.25 m²).
     pub support_min_area_mm2: f64,
-    /// Only points within this distance of a support candidate's plane count for its
-    /// front/behind test, mm. Default 600.
+    /// Planar surfaces at least this large are always supports (floors, walls), mm².
+    /// Default 2 000 000 (2 m²; a full EUR-pallet face is 1.4 m²).
+    pub support_always_area_mm2: f64,
+    /// Things standing on a support candidate: cells between `support_side_margin_mm` and this
+    /// far in front of its plane, mm. Default 600.
     pub support_window_mm: f64,
-    /// Points farther than this in front of / behind a support candidate's plane count as
-    /// front / behind, mm. Default 30.
+    /// See `support_window_mm`, mm. Default 30.
     pub support_side_margin_mm: f64,
+    /// A support candidate is a support when the cells standing on it (over its convex
+    /// footprint) number at least this fraction of its own cells. Default 0.05.
+    pub support_min_front_fraction: f64,
+    /// A support candidate with fewer than this fraction of the frame's valid cells behind
+    /// its plane bounds the scene (floor, wall) and is a support. Default 0.02.
+    pub support_max_behind_fraction: f64,
+    /// Dominant planes sought by RANSAC over all cells (floors and tables cut into pieces by
+    /// noise or texture). Default 3.
+    pub support_ransac_planes: u32,
+    /// RANSAC hypotheses per plane. Default 150.
+    pub support_ransac_iters: u32,
     /// A cell belongs to a support plane when its normal is within this angle of the plane's,
     /// degrees. Default 20.
     pub support_normal_tol_deg: f64,
@@ -86,10 +99,10 @@ pub struct DetectConfig {
     /// Faces need at least this many cells. Default 25.
     pub min_face_cells: u32,
     /// Two faces touch when their cells are at most this many cells apart along a row or
-    /// column (the edge band between them is unlabelled). Default 4.
+    /// column (the edge band between them is unlabelled). Default 12.
     pub contact_gap_cells: u32,
-    /// Contact cells must lie within this multiple of the plane tolerance of the other face's
-    /// plane (a real shared edge, not an occlusion boundary). Default 3.
+    /// Contact cells must be near in 3D and near the other face's plane (a shared edge, not an
+    /// occlusion boundary), within this multiple of the plane tolerance. Default 3.
     pub edge_tol_factor: f64,
     /// Two faces are adjacent with at least this many contacts. Default 3.
     pub min_contact_cells: u32,
@@ -99,7 +112,7 @@ pub struct DetectConfig {
     /// Default 5.
     pub convex_margin_mm: f64,
     /// Two faces of one box share an edge: their extents along it agree within this ratio
-    /// (shorter / longer). Default 0.6.
+    /// (shorter / longer; partly occluded faces are shorter). Default 0.4.
     pub edge_length_ratio: f64,
     /// Extents are measured between these quantiles of the points (and 1 − it). Default 0.02.
     pub extent_quantile: f64,
@@ -120,9 +133,11 @@ pub struct DetectConfig {
     pub two_face_factor: f64,
     /// Candidates scoring below this are dropped. Default 0.3.
     pub min_score: f64,
-    /// A surface-level candidate splits into colour-level ones when two of them differ in
-    /// mean colour by more than this, RGB levels. Default 20.
-    pub split_colour_delta: f64,
+    /// A surface-level candidate splits into its colour-level candidates when at least this
+    /// many seam cells lie next to two of them with coplanar faces (flush cartons). Default 6.
+    pub split_min_seam_cells: u32,
+    /// "Next to" for `split_min_seam_cells`: within this many cells. Default 3.
+    pub split_seam_reach_cells: u32,
     /// Colour-level candidates count for a split when they hold at least this fraction of the
     /// surface-level candidate's cells. Default 0.15.
     pub split_min_fraction: f64,
@@ -149,17 +164,22 @@ impl Default for DetectConfig {
             min_plane_inlier_frac: 0.8,
             max_normal_spread_deg: 25.0,
             support_min_area_mm2: 250_000.0,
+            support_always_area_mm2: 2_000_000.0,
             support_window_mm: 600.0,
             support_side_margin_mm: 30.0,
+            support_min_front_fraction: 0.05,
+            support_max_behind_fraction: 0.02,
+            support_ransac_planes: 3,
+            support_ransac_iters: 150,
             support_normal_tol_deg: 20.0,
             support_tol_factor: 1.5,
             min_face_cells: 25,
-            contact_gap_cells: 4,
+            contact_gap_cells: 12,
             edge_tol_factor: 3.0,
             min_contact_cells: 3,
             perpendicular_tol_deg: 15.0,
             convex_margin_mm: 5.0,
-            edge_length_ratio: 0.6,
+            edge_length_ratio: 0.4,
             extent_quantile: 0.02,
             max_box_extent_mm: 1000.0,
             min_box_extent_mm: 15.0,
@@ -167,7 +187,8 @@ impl Default for DetectConfig {
             one_face_factor: 0.7,
             two_face_factor: 0.9,
             min_score: 0.3,
-            split_colour_delta: 20.0,
+            split_min_seam_cells: 6,
+            split_seam_reach_cells: 3,
             split_min_fraction: 0.15,
             max_overlap: 0.3,
         }
@@ -364,9 +385,9 @@ fn validate(
 }
 
 /// Chooses between the surface-level and the colour-level candidates, then suppresses
-/// overlaps. A surface-level candidate stands unless it holds at least two colour-level
-/// candidates (each `split_min_fraction` of it) whose colours differ by more than
-/// `split_colour_delta` — then it is several cartons with flush faces, and those replace it.
+/// overlaps. A surface-level candidate stands unless a seam (thin dark line) runs between two
+/// of its colour-level candidates (each `split_min_fraction` of it) with coplanar faces — then
+/// it is several cartons with flush faces, and those replace it.
 fn select(
     g: &grid::Grid,
     geo: Vec<boxes::Raw>,
@@ -399,24 +420,56 @@ fn select(
     }
     let mut take_col = vec![false; col.len()];
     let mut out_geo = vec![true; geo.len()];
-    let d2 = cfg.split_colour_delta * cfg.split_colour_delta;
+    let mut col_owner = vec![u32::MAX; g.z.len()];
+    for (k, c) in col.iter().enumerate() {
+        for &i in &c.cells {
+            col_owner[i as usize] = k as u32;
+        }
+    }
+    let cos_par = cfg.perpendicular_tol_deg.to_radians().cos();
+    let reach = cfg.split_seam_reach_cells as isize;
+    let (w, h) = (g.w as isize, g.h as isize);
     for (k, gc) in geo.iter().enumerate() {
         let big: Vec<usize> = inside[k]
             .iter()
             .copied()
             .filter(|&c| col[c].cells.len() as f64 >= cfg.split_min_fraction * gc.cells.len() as f64)
             .collect();
-        let mut split = false;
-        for (x, &a) in big.iter().enumerate() {
-            for &b in &big[x + 1..] {
-                let (ca, cb) = (col[a].colour, col[b].colour);
-                let dd: f64 = (0..3).map(|i| (ca[i] - cb[i]).powi(2)).sum();
-                if dd > d2 {
-                    split = true;
+        if big.len() < 2 {
+            continue;
+        }
+        // Seam cells of this candidate next to two coplanar colour-level candidates: a seam
+        // between flush faces of two cartons (a box's own faces are perpendicular, and tape or
+        // print edges are colour steps, not thin dark lines).
+        let mut between: std::collections::BTreeMap<(usize, usize), usize> = Default::default();
+        for &cell in &gc.cells {
+            let i = cell as usize;
+            if !g.seam[i] {
+                continue;
+            }
+            let (u, v) = ((i % g.w) as isize, (i / g.w) as isize);
+            let mut near: Vec<usize> = Vec::new();
+            for dv in -reach..=reach {
+                for du in -reach..=reach {
+                    let (uu, vv) = (u + du, v + dv);
+                    if uu < 0 || vv < 0 || uu >= w || vv >= h {
+                        continue;
+                    }
+                    let o = col_owner[(vv * w + uu) as usize];
+                    if o != u32::MAX && big.contains(&(o as usize)) && !near.contains(&(o as usize)) {
+                        near.push(o as usize);
+                    }
+                }
+            }
+            for (x, &a) in near.iter().enumerate() {
+                for &b in &near[x + 1..] {
+                    if col[a].normal.dot(&col[b].normal) >= cos_par {
+                        *between.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+                    }
                 }
             }
         }
-        if split {
+        if between.values().any(|&n| n >= cfg.split_min_seam_cells as usize) {
             out_geo[k] = false;
             for &c in &inside[k] {
                 take_col[c] = true;

@@ -107,7 +107,9 @@ pub(crate) struct Joins {
 /// (depth and normal cues) and whether they also look alike (colour change, printed seam).
 pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) -> Joins {
     let (w, h) = (g.w, g.h);
-    let r = cfg.normal_radius_cells.max(1) as usize;
+    // A normal at a cell mixes depth from normal_radius + smooth_radius cells around it:
+    // compare normals that far outside the pair, where each is purely one side's.
+    let r = (cfg.normal_radius_cells.max(1) + cfg.smooth_radius_cells) as usize;
     let cos_n = (cfg.normal_cut_deg.to_radians().cos()) as f32;
     let col2 = (cfg.colour_cut * cfg.colour_cut) as f32;
     let same = |i: usize, j: usize| -> bool {
@@ -123,6 +125,16 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
      -> (bool, bool) {
         if !same(i, j) {
             return (false, false);
+        }
+        // Flying pixels (depth mixed between a near and a far surface) would bridge the jump
+        // one small step at a time: also test the cells one outside the pair.
+        if let (Some(a), Some(b)) = (back(i), fwd(j)) {
+            if g.z[a] > 0.0
+                && g.z[b] > 0.0
+                && (g.z[a] - g.z[b]).abs() > 1.5 * jump_tol(cfg, g.z[a].min(g.z[b]))
+            {
+                return (false, false);
+            }
         }
         // Normals compared r cells outside the pair, staying on the surface.
         let (mut a, mut b) = (i, j);
