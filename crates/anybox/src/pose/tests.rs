@@ -822,6 +822,17 @@ fn report_pipeline_pose_variants() {
     let mut c = base.clone();
     c.pose.hypotheses.prior_restricts = false;
     variants.push(("no prior restriction", c));
+    let paper = crate::config::Config::paper();
+    variants.push(("paper (Alg. 1+2)", paper.clone()));
+    let mut c = paper.clone();
+    c.pose.depth_filter.enabled = false;
+    variants.push(("paper, no depth filter", c));
+    let mut c = paper.clone();
+    c.pose.hypotheses.prior_restricts = false;
+    variants.push(("paper, no prior restriction", c));
+    let mut c = base.clone();
+    c.pose.depth_filter.enabled = false;
+    variants.push(("default, no depth filter", c));
     let mut c = base.clone();
     c.pose.size_agreement_weight = 0.0;
     variants.push(("no size agreement", c));
@@ -908,4 +919,35 @@ fn report_canonical_first_call() {
         errs[errs.len() / 2],
         errs[errs.len() * 9 / 10]
     );
+}
+
+/// Debug helper (report only): one box through the pipeline with per-call pose logging.
+#[test]
+#[ignore]
+fn report_pipeline_one_box() {
+    use anybox_synth::{generate_view, SynthConfig};
+    let scfg = SynthConfig {
+        scenes: 8,
+        views: 1,
+        ..Default::default()
+    };
+    let s: u32 = std::env::var("SCENE")
+        .ok()
+        .and_then(|x| x.parse().ok())
+        .unwrap_or(1);
+    let v = generate_view(&scfg, s, 0);
+    let cfg = crate::config::Config::default();
+    for b in v.boxes.iter().filter(|b| b.visib_fract >= 0.5) {
+        let e =
+            crate::pipeline::estimate_box(&v.depth, &v.intrinsics, &b.mask_visib, &cfg).unwrap();
+        println!(
+            "gt size {:?} est size {:?} iou {:.3} rot err {:.1}° centre err {:.1} calls {}",
+            b.pose.size_mm.as_slice(),
+            e.pose.size_mm.as_slice(),
+            anybox_geom::iou::iou(&e.pose, &b.pose, anybox_geom::iou::IouMethod::Exact),
+            anybox_geom::symmetry::rotation_error_deg(&e.pose, &b.pose),
+            (e.pose.center_mm - b.pose.center_mm).norm(),
+            e.pose_calls
+        );
+    }
 }
