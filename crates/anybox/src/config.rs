@@ -26,7 +26,7 @@ use crate::pose::PoseConfig;
 use crate::scale::{ScaleConfig, ScaleMode};
 
 /// All estimator parameters.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct Config {
     /// Masked depth → 3D points (SPEC §1 "pose hypotheses", input side).
@@ -42,19 +42,6 @@ pub struct Config {
     pub seed: u64,
     /// Zero-shot box detection without given masks (issue #4; `--masks detect`).
     pub detect: crate::detect::DetectConfig,
-}
-
-impl Default for Config {
-    fn default() -> Self {
-        Self {
-            observation: ObservationConfig::default(),
-            pose: PoseConfig::default(),
-            scale: ScaleConfig::default(),
-            context: ContextConfig::default(),
-            seed: 0,
-            detect: crate::detect::DetectConfig::default(),
-        }
-    }
 }
 
 impl Config {
@@ -136,13 +123,17 @@ mod tests {
 
     #[test]
     fn paper_defaults() {
-        let c = Config::default();
+        let c = Config::paper();
         assert_eq!(c.scale.mode, ScaleMode::EarlyStopping);
         assert_eq!(c.scale.tau_px, 10.0);
-        assert!(!Config::paper().context.enabled);
-        assert_eq!(
-            Config::default().canonical().scale.mode,
-            ScaleMode::Canonical
-        );
+        assert!(!c.context.enabled);
+        assert!(c.pose.depth_filter.enabled);
+        assert_eq!(Config::default().scale.mode, ScaleMode::PointFit);
+        assert!(Config::default().context.enabled);
+        assert_eq!(Config::paper().canonical().scale.mode, ScaleMode::Canonical);
+        assert!(!Config::paper().no_depth_filter().pose.depth_filter.enabled);
+        // A partial JSON keeps the default mode.
+        let p = Config::from_json(r#"{"scale": {"tau_px": 5}}"#).unwrap();
+        assert_eq!(p.scale.mode, ScaleMode::PointFit);
     }
 }

@@ -55,7 +55,8 @@ pub enum ScaleMode {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct ScaleConfig {
-    /// Which algorithm; default [`ScaleMode::EarlyStopping`] (paper §3, Algorithm 2).
+    /// Which algorithm; default [`ScaleMode::PointFit`] (anybox's best measured);
+    /// [`ScaleMode::EarlyStopping`] is the paper's (§3, Algorithm 2), see `Config::paper()`.
     pub mode: ScaleMode,
     /// Canonical template `s₀`, mm (x, y, z): 300 × 200 × 150 mm, a mid-size shipping carton
     /// (the paper starts from "a canonical category template" without giving its size).
@@ -94,6 +95,10 @@ pub struct ScaleConfig {
     /// decisions (Alg. 1) and the one-step update (Alg. 2, `s ← s + J⁻¹(e_obs − e_cad)`) use those.
     /// Off = the paper's raw comparison and ratio update `s ← s ⊙ (e_obs ⊘ e_cad)`.
     pub decoupled: bool,
+    /// Algorithms 1 and 2: pass the previous pose to the pose estimator as a prior (cheaper, and
+    /// the axes stay put). The paper re-estimates from scratch; with a prior, a wrong axis
+    /// assignment made for the initial template can never be left, so default false.
+    pub search_with_prior: bool,
     /// PointFit: alternations of point-extent size fit and pose estimate.
     pub pointfit_iters: u32,
     /// PointFit: percentile (each end, %) of point coordinates taken as the face edges.
@@ -120,7 +125,7 @@ pub struct ScaleConfig {
 impl Default for ScaleConfig {
     fn default() -> Self {
         Self {
-            mode: ScaleMode::EarlyStopping,
+            mode: ScaleMode::PointFit,
             template_mm: [300.0, 200.0, 150.0],
             lower_mm: 20.0,
             upper_mm: 1200.0,
@@ -133,6 +138,7 @@ impl Default for ScaleConfig {
             extent_trim_fraction: 0.0005,
             occluder_margin_mm: 20.0,
             decoupled: true,
+            search_with_prior: false,
             pointfit_iters: 3,
             pointfit_percentile: 0.5,
             pointfit_edge_px: 1.0,
@@ -548,7 +554,7 @@ fn binary_search<P: PoseEstimator>(
     let mut stale = true;
     for _ in 0..cfg.max_iters.max(1) {
         iterations += 1;
-        let sample = est.estimate(&s, prior.as_ref())?;
+        let sample = est.estimate(&s, prior.as_ref().filter(|_| cfg.search_with_prior))?;
         pose_calls += 1;
         stale = false;
         let pose = sample.pose;
@@ -560,14 +566,6 @@ fn binary_search<P: PoseEstimator>(
             }
         }
         let cmp = compare(&pose, inputs, cfg, &mut scratch);
-        if std::env::var("ANYBOX_DEBUG").is_ok() {
-            eprintln!(
-                "it {iterations} s {:?} cmp {:?} step {:?}",
-                s.as_slice(),
-                cmp,
-                decoupled_step(&pose, inputs.intrinsics, &cmp)
-            );
-        }
         let err = cmp
             .iter()
             .flatten()
@@ -599,7 +597,7 @@ fn binary_search<P: PoseEstimator>(
                 }
             }
             s = clamp_size(&s, cfg);
-            let sample = est.estimate(&s, prior.as_ref())?;
+            let sample = est.estimate(&s, prior.as_ref().filter(|_| cfg.search_with_prior))?;
             pose_calls += 1;
             last = Some(sample);
             stopped_early = true;
@@ -630,11 +628,11 @@ fn binary_search<P: PoseEstimator>(
     let mut out = match last {
         Some(l) => l,
         // max_iters ≥ 1, so the loop ran at least once.
-        None => est.estimate(&s, prior.as_ref())?,
+        None => est.estimate(&s, prior.as_ref().filter(|_| cfg.search_with_prior))?,
     };
     if stale && !converged && !stopped_early {
         // The loop ended on a size update: estimate the pose for the size it returns.
-        out = est.estimate(&s, prior.as_ref())?;
+        out = est.estimate(&s, prior.as_ref().filter(|_| cfg.search_with_prior))?;
         pose_calls += 1;
     }
     Ok(ScaleOutcome {
@@ -769,7 +767,7 @@ pub fn mask_ray_fit(
                 }
             }
         }
-        if best_b == usize::MAX || !(best_t > 0.0) {
+        if best_b == usize::MAX || best_t.is_nan() || best_t <= 0.0 {
             continue;
         }
         face_pixels[best_b] += 1;
@@ -909,20 +907,12 @@ fn point_fit<P: PoseEstimator>(
             }
         }
         new = clamp_size(&new, cfg);
-        if std::env::var("ANYBOX_DEBUG").is_ok() {
-            eprintln!(
-                "pf it {iterations} size {:?} counts {:?} obs {:?} ext {:?} new {:?} R {:?}",
-                size.as_slice(),
-                counts,
-                observed,
-                ext,
-                new.as_slice(),
-                pose.rotation.matrix().as_slice()
-            );
-        }
         let change = (new - size).abs().max();
         size = new;
-        sample = est.estimate(&size, Some(&pose))?;
+        // The first re-estimate searches freely: the template's pose may have put the template's
+        // axes on the wrong sides of the box, which a prior would keep.
+        let prior = (iterations > 1).then_some(&pose);
+        sample = est.estimate(&size, prior)?;
         pose_calls += 1;
         if change < 1.0 {
             converged = true;

@@ -61,7 +61,7 @@ impl Extents {
 /// Returns `None` when the box centre is not in front of the camera.
 pub fn axis_directions(pose: &OrientedBox, k: &Intrinsics) -> Option<AxisDirections> {
     let c = pose.center_mm;
-    if !(c.z > 1e-6) || !c.iter().all(|x| x.is_finite()) {
+    if !c.iter().all(|x| x.is_finite()) || c.z <= 1e-6 {
         return None;
     }
     let z = c.z;
@@ -176,7 +176,7 @@ pub fn mask_span(
 
 /// Number of pixels to trim at each end for `n` mask pixels and a trim fraction.
 pub fn trim_count(n: usize, trim_fraction: f64) -> usize {
-    if !(trim_fraction > 0.0) {
+    if trim_fraction.is_nan() || trim_fraction <= 0.0 {
         return 0;
     }
     ((n as f64) * trim_fraction).floor() as usize
@@ -268,7 +268,7 @@ pub fn convex_spans(poly: &[Point2<f64>], width: u32, height: u32) -> Vec<(u32, 
         });
     let v0 = ymin.ceil().max(0.0);
     let v1 = ymax.floor().min(f64::from(height) - 1.0);
-    if !(v0 <= v1) {
+    if v0.is_nan() || v1.is_nan() || v0 > v1 {
         return out;
     }
     let n = poly.len();
