@@ -478,3 +478,68 @@ pub fn share_layer_heights(
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Rotation3;
+
+    fn top_box(x: f64, size: Vector3<f64>, top_z: f64) -> OrientedBox {
+        // Camera looking straight down the z axis; box z axis along the view ray.
+        let c = Vector3::new(x, 0.0, top_z + size.z / 2.0);
+        OrientedBox::new(Rotation3::identity(), c, size).unwrap()
+    }
+
+    #[test]
+    fn layer_neighbours_share_height() {
+        let cfg = ContextConfig::default();
+        let a = top_box(0.0, Vector3::new(300.0, 200.0, 150.0), 1000.0);
+        let b = top_box(320.0, Vector3::new(250.0, 200.0, 220.0), 1000.0);
+        // A third box one layer down must not vote.
+        let c = top_box(-320.0, Vector3::new(250.0, 200.0, 400.0), 1200.0);
+        let obs = [HiddenSource::Observed; 3];
+        let hid = [
+            HiddenSource::Observed,
+            HiddenSource::Observed,
+            HiddenSource::Fallback,
+        ];
+        let members = [
+            LayerMember {
+                pose: a,
+                sources: hid,
+            },
+            LayerMember {
+                pose: b,
+                sources: obs,
+            },
+            LayerMember {
+                pose: c,
+                sources: obs,
+            },
+        ];
+        let up = share_layer_heights(&members, &cfg);
+        let s = up[0].expect("a takes its neighbour's height");
+        assert_eq!(s, Vector3::new(300.0, 200.0, 220.0));
+        assert!(up[1].is_none() && up[2].is_none());
+    }
+
+    #[test]
+    fn observed_axes_rule() {
+        let cfg = ContextConfig::default();
+        // Only the face with normal z seen: z unobserved.
+        assert_eq!(
+            observed_axes_from_counts(&[0, 2, 1000], &cfg).0,
+            [true, true, false]
+        );
+        // Two faces: all observed.
+        assert_eq!(
+            observed_axes_from_counts(&[0, 300, 1000], &cfg).0,
+            [true; 3]
+        );
+        // A sliver below 5 % does not count.
+        assert_eq!(
+            observed_axes_from_counts(&[0, 40, 1000], &cfg).0,
+            [true, true, false]
+        );
+    }
+}
