@@ -531,6 +531,16 @@ mod bench {
             }),
             ("pointfit", Config::anybox()),
             ("canonical", Config::paper().canonical()),
+            ("paper-es-raw", {
+                let mut c = Config::paper();
+                c.scale.decoupled = false;
+                c
+            }),
+            ("paper-bs-raw", {
+                let mut c = Config::paper().binary_search_only();
+                c.scale.decoupled = false;
+                c
+            }),
             ("pf-ratio", {
                 let mut c = Config::anybox();
                 c.context.min_support_fraction = 0.1;
@@ -637,6 +647,11 @@ mod bench {
                 pct(&mut times, 0.5),
                 pct(&mut times, 0.9),
                 pct(&mut calls, 0.5),
+            );
+            println!(
+                "{name:10} mean ms {:.1} mean calls {:.2}",
+                times.iter().sum::<f64>() / times.len().max(1) as f64,
+                calls.iter().sum::<f64>() / calls.len().max(1) as f64
             );
         }
     }

@@ -90,10 +90,13 @@ pub struct ScaleConfig {
     /// Algorithms 1 and 2 decide on *decoupled* extent errors: the silhouette extent along one
     /// axis' image direction also grows with the other two dimensions, so the raw per-axis error
     /// can point the wrong way and lock a binary-search bound on the wrong side of the truth.
-    /// With this on (default), the per-axis errors are first mapped to size corrections through
-    /// the 3×3 Jacobian of the extents w.r.t. the dimensions (visible faces held fixed), and the
-    /// decisions (Alg. 1) and the one-step update (Alg. 2, `s ← s + J⁻¹(e_obs − e_cad)`) use those.
-    /// Off = the paper's raw comparison and ratio update `s ← s ⊙ (e_obs ⊘ e_cad)`.
+    /// With this on, the per-axis errors are first mapped to size corrections through the 3×3
+    /// Jacobian of the extents w.r.t. the dimensions (visible faces held fixed), and the
+    /// decisions (Alg. 1) and the one-step update (Alg. 2, `s ← s + J⁻¹(e_obs − e_cad)`) use
+    /// those; with an exact pose this converges where the raw rule locks up (see the tests).
+    /// Off (default) = the paper's raw comparison and ratio update `s ← s ⊙ (e_obs ⊘ e_cad)`,
+    /// which measured better with the real pose estimator on the synthetic bench (share of boxes
+    /// above IoU 0.5: 0.74 vs 0.49 for early stopping), whose axes move between iterations.
     pub decoupled: bool,
     /// Algorithms 1 and 2: pass the previous pose to the pose estimator as a prior (cheaper, and
     /// the axes stay put). The paper re-estimates from scratch; with a prior, a wrong axis
@@ -137,7 +140,7 @@ impl Default for ScaleConfig {
             stable_steps: 2,
             extent_trim_fraction: 0.0005,
             occluder_margin_mm: 20.0,
-            decoupled: true,
+            decoupled: false,
             search_with_prior: false,
             pointfit_iters: 3,
             pointfit_percentile: 0.5,
@@ -1083,6 +1086,7 @@ mod tests {
         };
         let cfg = ScaleConfig {
             mode,
+            decoupled: true,
             template_mm: template,
             tau_px: 1.0,
             max_iters: 20,
@@ -1107,6 +1111,37 @@ mod tests {
                 out.pose.size_mm
             );
             assert!(!out.stopped_early);
+        }
+    }
+
+    #[test]
+    fn paper_literal_binary_search_gets_close() {
+        // The raw per-axis rule (decoupled = false) with the paper's τ_px = 10 px.
+        let (gt, depth, mask) = scene();
+        let k = cam();
+        let px = mask_pixels(&mask);
+        let inputs = ScaleInputs {
+            intrinsics: &k,
+            depth: &depth,
+            mask_pixels: &px,
+            points_mm: &[],
+            normals: &[],
+        };
+        for f in [2.0, 0.5] {
+            let cfg = ScaleConfig {
+                mode: ScaleMode::BinarySearch,
+                template_mm: [260.0 * f, 170.0 * f, 120.0 * f],
+                ..Default::default()
+            };
+            assert!(!cfg.decoupled);
+            let mut est = oracle_pose(gt);
+            let out =
+                scale_search(&mut est, &inputs, &cfg, &ContextConfig::default(), None).unwrap();
+            let rel = (out.pose.size_mm - gt.size_mm)
+                .abs()
+                .component_div(&gt.size_mm)
+                .max();
+            assert!(rel < 0.12, "factor {f}: {:?}", out.pose.size_mm);
         }
     }
 
