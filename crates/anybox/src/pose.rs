@@ -38,13 +38,11 @@ use std::borrow::Cow;
 
 use anybox_geom::{Intrinsics, OrientedBox};
 use anybox_io::image::DepthMap;
-use nalgebra::{Matrix3, Point3, Rotation3, Vector2, Vector3};
+use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 
 use crate::depth_filter::{depth_penalty, CellMinDepth, DepthFilterConfig, SurfaceSamples};
 use crate::error::EstimateError;
-use crate::hypotheses::{
-    analyse, convex_hull_2d, generate, robust_extent, FrameSet, HypothesisConfig,
-};
+use crate::hypotheses::{analyse, generate, robust_extent, FrameSet, HypothesisConfig};
 use crate::observation::Observation;
 use crate::refine::{
     align_translation, closest_on_faces, inlier_stats, refine_pose, visible_faces, RefineConfig,
@@ -354,14 +352,9 @@ impl<'a> ScoringContext<'a> {
 /// union, so a partly occluded box is not pushed to shrink into its visible part. Scanline over
 /// the hull rows, counts from the row prefix sums (O(rows)).
 pub fn silhouette_iou(pose: &OrientedBox, obs: &Observation, k: &Intrinsics) -> f64 {
-    let mut pts = Vec::with_capacity(8);
-    for c in pose.corners_mm() {
-        match k.project(&c) {
-            Some(p) if c.z > 1e-3 => pts.push(Vector2::new(p.x, p.y)),
-            _ => return 0.0,
-        }
-    }
-    let hull = convex_hull_2d(&pts);
+    let Some(hull) = anybox_geom::projection::silhouette_hull_px(pose, k) else {
+        return 0.0;
+    };
     if hull.len() < 3 {
         return 0.0;
     }

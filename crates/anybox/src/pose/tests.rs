@@ -951,3 +951,54 @@ fn report_pipeline_one_box() {
         );
     }
 }
+
+#[test]
+fn silhouette_iou_matches_brute_force_rasterisation() {
+    // A box in front of a far wall, partly hidden by a nearer box: the occluder's pixels are
+    // "explained" (left out of the union), the wall's are disagreement.
+    let size = Vector3::new(200.0, 150.0, 100.0);
+    let truth = OrientedBox::new(
+        Rotation3::from_euler_angles(0.2, -0.3, 0.1),
+        Vector3::new(0.0, 0.0, 1100.0),
+        size,
+    )
+    .unwrap();
+    let occluder = OrientedBox::new(
+        Rotation3::identity(),
+        Vector3::new(-90.0, 0.0, 800.0),
+        Vector3::new(80.0, 300.0, 50.0),
+    )
+    .unwrap();
+    let k = cam();
+    let (depth, masks) = render(&[truth, occluder], Some((Vector3::z(), 1600.0)), 0.0, 0);
+    let obs = observe(&depth, &k, &masks[0], &ObservationConfig::default()).unwrap();
+    for (i, pose) in [
+        truth,
+        OrientedBox {
+            center_mm: truth.center_mm + Vector3::new(25.0, -10.0, 5.0),
+            ..truth
+        },
+        OrientedBox {
+            size_mm: size * 1.3,
+            ..truth
+        },
+    ]
+    .iter()
+    .enumerate()
+    {
+        let hull = anybox_geom::projection::silhouette_hull_px(pose, &k).unwrap();
+        let fill = anybox_geom::projection::rasterize_convex_polygon(&hull, 640, 480);
+        let (mut inter, mut union) = (0usize, 0usize);
+        for (j, (&h, &m)) in fill.iter().zip(&masks[0].data).enumerate() {
+            let occluded = depth.depth_mm[j] < 1000.0; // only the occluder is this near
+            inter += (h && m) as usize;
+            union += (m || (h && !occluded)) as usize;
+        }
+        let brute = inter as f64 / union as f64;
+        let ours = silhouette_iou(pose, &obs, &k);
+        assert!((ours - brute).abs() < 1e-12, "case {i}: {ours} vs {brute}");
+        if i == 0 {
+            assert!(ours > 0.999, "the true box explains the mask: {ours}");
+        }
+    }
+}
