@@ -90,10 +90,9 @@ pub(crate) fn render(
     (depth, masks)
 }
 
-/// Rotation error modulo the 4 symmetries of a box with distinct sides, degrees.
+/// Rotation error modulo the box's symmetries, degrees (GEOM's independent implementation).
 pub(crate) fn rot_err_deg(a: &OrientedBox, b: &OrientedBox) -> f64 {
-    let v = closest_variant(a, &b.rotation);
-    angle_deg(&v.rotation, &b.rotation)
+    anybox_geom::symmetry::rotation_error_deg(a, b)
 }
 
 /// Geodesic angle between two rotations, degrees (clamped: no NaN at exactly 0).
