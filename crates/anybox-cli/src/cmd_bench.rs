@@ -5,7 +5,9 @@ use std::path::PathBuf;
 use anyhow::Context as _;
 use clap::Args;
 
-use anybox::bench::{bop_set, default_variants, markdown_table, run_variant, synthetic_set, BenchSet};
+use anybox::bench::{
+    bop_set, default_variants, markdown_table, run_variant, synthetic_set, BenchSet,
+};
 use anybox::io::bop::BopDataset;
 
 /// Benchmark the estimator variants (full, no depth filter, no early stopping, canonical size,
@@ -55,15 +57,26 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         let ds = BopDataset::open(&args.ycbv, "test")?;
         sets.push(bop_set(&ds, "ycbv-boxes (real, Asus Xtion)", 0.1)?);
     } else {
-        eprintln!("note: {} not found; skipping the ycbv-boxes table", args.ycbv.display());
+        eprintln!(
+            "note: {} not found; skipping the ycbv-boxes table",
+            args.ycbv.display()
+        );
     }
     let variants: Vec<_> = default_variants()
         .into_iter()
-        .filter(|v| args.only.as_ref().is_none_or(|o| v.name.contains(o.as_str())))
+        .filter(|v| {
+            args.only
+                .as_ref()
+                .is_none_or(|o| v.name.contains(o.as_str()))
+        })
         .collect();
     let mut md = String::new();
     for set in &sets {
-        let min_visib = if set.name.starts_with("ycbv") { 0.1 } else { args.min_visib };
+        let min_visib = if set.name.starts_with("ycbv") {
+            0.1
+        } else {
+            args.min_visib
+        };
         let mut results = Vec::new();
         for v in &variants {
             eprintln!("{}: {} …", set.name, v.name);

@@ -123,7 +123,10 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     );
     println!(
         "overlays (green = ground truth, yellow = estimate with size in mm): {}",
-        args.out.canonicalize().unwrap_or_else(|_| args.out.clone()).display()
+        args.out
+            .canonicalize()
+            .unwrap_or_else(|_| args.out.clone())
+            .display()
     );
     Ok(())
 }

@@ -78,7 +78,10 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
             f.scene_id,
             f.im_id,
             f.gt_index.map(|g| format!(" gt {g}")).unwrap_or_default(),
-            f.mask.as_ref().map(|m| format!(" ({m})")).unwrap_or_default(),
+            f.mask
+                .as_ref()
+                .map(|m| format!(" ({m})"))
+                .unwrap_or_default(),
             f.error
         );
     }
