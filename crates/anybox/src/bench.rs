@@ -166,6 +166,13 @@ pub fn bop_set(ds: &BopDataset, name: &str, min_visib: f64) -> Result<BenchSet, 
     })
 }
 
+/// The paper's Algorithms 1 + 2 plus anybox's hidden-dimension context.
+fn paper_with_context() -> Config {
+    let mut c = Config::paper();
+    c.context.enabled = true;
+    c
+}
+
 /// An estimator variant.
 #[derive(Debug, Clone)]
 pub struct Variant {
@@ -198,8 +205,13 @@ pub fn default_variants() -> Vec<Variant> {
             false,
         ),
         v("oracle size (GT CAD)", Config::paper(), true),
-        v("paper + hidden-dim context", Config::default(), false),
-        v("anybox (point-fit + context)", Config::anybox(), false),
+        v("paper + hidden-dim context", paper_with_context(), false),
+        v("anybox default (point-fit + context)", Config::anybox(), false),
+        v(
+            "anybox, no depth filter",
+            Config::anybox().no_depth_filter(),
+            false,
+        ),
     ]
 }
 
