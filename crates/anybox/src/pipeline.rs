@@ -541,18 +541,8 @@ mod bench {
                 c.scale.decoupled = false;
                 c
             }),
-            ("pf-ratio", {
-                let mut c = Config::anybox();
-                c.context.min_support_fraction = 0.1;
-                c.context.support_ratio = [0.4, 2.0];
-                c
-            }),
-            ("pf-ratio2", {
-                let mut c = Config::anybox();
-                c.context.min_support_fraction = 0.1;
-                c.context.support_ratio = [0.4, 1.5];
-                c
-            }),
+            ("oracle", Config::paper()),
+            ("no-dfilter", Config::anybox().no_depth_filter()),
             ("pf-frac10", {
                 let mut c = Config::anybox();
                 c.context.min_support_fraction = 0.1;
@@ -587,6 +577,12 @@ mod bench {
                     }
                     let od = anybox_eval::observed_dims(&b.pose, &b.mask_visib, &v.intrinsics);
                     let t0 = Instant::now();
+                    let cfg = if name == "oracle" {
+                        cfg.clone()
+                            .oracle([b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z])
+                    } else {
+                        cfg.clone()
+                    };
                     let r = estimate_box(&v.depth, &v.intrinsics, &b.mask_visib, &cfg);
                     times.push(t0.elapsed().as_secs_f64() * 1e3);
                     match r {
