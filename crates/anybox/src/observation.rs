@@ -328,8 +328,9 @@ pub fn observe(
         }
     }
 
-    let mut points = Vec::new();
-    let mut pixels = Vec::new();
+    let kept = keep.iter().filter(|k| **k).count();
+    let mut points = Vec::with_capacity(kept);
+    let mut pixels = Vec::with_capacity(kept);
     for r in 0..bh {
         for k in 0..bw {
             if keep[r * bw + k] {
