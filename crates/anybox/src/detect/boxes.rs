@@ -60,20 +60,51 @@ pub(crate) fn support_mask(
             members[l as usize].push(i);
         }
     }
+    // (surface index or None for a RANSAC plane, plane, bounds-the-scene, things-stand-on-it)
+    let mut cands: Vec<(Option<usize>, Region, bool, bool)> = Vec::new();
     for (r, reg) in surfaces.iter().enumerate() {
         if reg.area_mm2 < cfg.support_min_area_mm2 || reg.inlier_frac < cfg.min_plane_inlier_frac
         {
             continue;
         }
-        if is_support_plane(g, reg, &members[r], cfg) {
-            is_support[r] = true;
-            planes.push(reg.clone());
+        let (strong, standing) = support_tests(g, reg, &members[r], cfg);
+        cands.push((Some(r), reg.clone(), strong, standing));
+    }
+    for (reg, strong, standing) in ransac_planes(g, cfg) {
+        cands.push((None, reg, strong, standing));
+    }
+    // "Up": the normal of the largest plane that bounds the scene (the floor). Things stand on
+    // planes parallel to it (tables, shelf boards); a vertical face with floor in front of it
+    // does not count.
+    let up = cands
+        .iter()
+        .filter(|c| c.2)
+        .max_by(|a, b| a.1.area_mm2.total_cmp(&b.1.area_mm2))
+        .map(|c| c.1.normal);
+    let cos_up = cfg.support_normal_tol_deg.to_radians().cos();
+    for (src, reg, strong, standing) in cands {
+        let parallel = up.is_none_or(|u| u.dot(&reg.normal).abs() >= cos_up);
+        if strong || (standing && parallel) {
+            if let Some(r) = src {
+                is_support[r] = true;
+            }
+            planes.push(reg);
         }
     }
-    planes.extend(ransac_supports(g, cfg));
+    // Only cells on the support's plane: a box top that leaked into the table's surface (a
+    // low box seen at a grazing angle) stays.
+    let cos_n = cfg.support_normal_tol_deg.to_radians().cos();
     let on = surface_labels
         .iter()
-        .map(|&l| l != NONE && is_support[l as usize])
+        .enumerate()
+        .map(|(i, &l)| {
+            l != NONE && is_support[l as usize] && {
+                let reg = &surfaces[l as usize];
+                let n = v3(&g.n[i]);
+                reg.dist(&g.p[i]).abs() <= cfg.support_tol_factor * plane_tol(cfg, g.z[i] as f64)
+                    && (n.norm_squared() < 0.5 || n.dot(&reg.normal) >= cos_n)
+            }
+        })
         .collect();
     (on, planes)
 }
@@ -111,12 +142,9 @@ pub(crate) fn drop_support_fragments(
         .collect()
 }
 
-/// Whether a plane (with its member cells) is a support: at least `support_always_area_mm2`,
-/// or things standing on it, or (almost) nothing behind it.
-fn is_support_plane(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) -> bool {
-    if reg.area_mm2 >= cfg.support_always_area_mm2 {
-        return true;
-    }
+/// Support tests of a plane with its member cells: (at least `support_always_area_mm2` or
+/// (almost) nothing behind it, things standing on it).
+fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) -> (bool, bool) {
     // Things standing on the plane: cells in front of it whose foot (projection onto the
     // plane) lies inside the member cells' convex footprint.
     let t = if reg.normal.x.abs() < 0.9 {
@@ -137,7 +165,7 @@ fn is_support_plane(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig)
         .map(|&i| to2(&v3(&g.p[i])))
         .collect();
     let hull = convex_hull_2d(&pts);
-    let (mut front, mut behind, mut valid) = (0usize, 0usize, 0usize);
+    let (mut front, mut behind_in, mut behind, mut valid) = (0usize, 0usize, 0usize, 0usize);
     for (i, &z) in g.z.iter().enumerate() {
         if z <= 0.0 {
             continue;
@@ -147,21 +175,29 @@ fn is_support_plane(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig)
         if d < -cfg.support_side_margin_mm {
             behind += 1;
         }
-        if d <= cfg.support_side_margin_mm || d > cfg.support_window_mm {
+        if d.abs() <= cfg.support_side_margin_mm || d.abs() > cfg.support_window_mm {
             continue;
         }
         if inside_convex(&hull, &to2(&v3(&g.p[i]))) {
-            front += 1;
+            if d > 0.0 {
+                front += 1;
+            } else {
+                behind_in += 1;
+            }
         }
     }
     // A plane with (almost) nothing behind it bounds the scene: floor, wall.
-    front as f64 >= cfg.support_min_front_fraction * cells.len() as f64
-        || (behind as f64) < cfg.support_max_behind_fraction * valid as f64
+    (
+        reg.area_mm2 >= cfg.support_always_area_mm2
+            || (behind as f64) < cfg.support_max_behind_fraction * valid as f64,
+        // A box top (a carton layer) has the boxes' bodies under it; a table has legs at most.
+        front as f64 >= cfg.support_min_front_fraction * cells.len() as f64 && front > behind_in,
+    )
 }
 
-/// Dominant planes by RANSAC over all cells (deterministic), kept when they are supports: finds
+/// Dominant planes by RANSAC over all cells (deterministic), with their support tests: finds
 /// floors and tables that sensor noise or texture cut into many small surfaces.
-fn ransac_supports(g: &Grid, cfg: &DetectConfig) -> Vec<Region> {
+fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
     let mut pool: Vec<usize> = (0..g.z.len()).filter(|&i| g.z[i] > 0.0).step_by(3).collect();
     let mut out = Vec::new();
     let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
@@ -245,12 +281,20 @@ fn ransac_supports(g: &Grid, cfg: &DetectConfig) -> Vec<Region> {
             colour: [0.0; 3],
             area_mm2: area,
         };
+        if std::env::var("DETECT_DEBUG").is_ok() {
+            eprintln!(
+                "ransac plane n {} area {:.0} normal {:?} support {:?}",
+                inl.len(),
+                area,
+                normal.as_slice(),
+                support_tests(g, &reg, &inl, cfg)
+            );
+        }
         if area < cfg.support_min_area_mm2 {
             break;
         }
-        if is_support_plane(g, &reg, &inl, cfg) {
-            out.push(reg);
-        }
+        let (strong, standing) = support_tests(g, &reg, &inl, cfg);
+        out.push((reg, strong, standing));
         let taken: std::collections::BTreeSet<usize> = inl.into_iter().collect();
         pool.retain(|i| !taken.contains(i));
     }
@@ -623,7 +667,11 @@ fn score_group(
     };
     let max_dim = observed.iter().cloned().fold(0.0, f64::max);
     let min_dim = observed.iter().cloned().fold(f64::INFINITY, f64::min);
+    let dbg = std::env::var("DETECT_DEBUG").is_ok();
     if max_dim > cfg.max_box_extent_mm || min_dim < cfg.min_box_extent_mm {
+        if dbg && all.len() > 300 {
+            eprintln!("group {mem:?} n {} rejected size {max_dim:.0} {min_dim:.0}", all.len());
+        }
         return None;
     }
     let mut rot = Matrix3::from_columns(&axes);
@@ -654,11 +702,16 @@ fn score_group(
         if !ins {
             continue;
         }
-        hull_n += 1;
         if member(i) {
+            hull_n += 1;
             inter += 1;
             continue;
         }
+        // Unlabelled cells (edge bands, noise, holes) are unknown: neither for nor against.
+        if labels[i] == NONE {
+            continue;
+        }
+        hull_n += 1;
         let z = g.z[i] as f64;
         if z <= 0.0 {
             continue;
@@ -682,6 +735,15 @@ fn score_group(
         _ => 1.0,
     };
     let score = (fit * iou * depth_ok * faces_factor).clamp(0.0, 1.0);
+    if dbg && all.len() > 300 {
+        eprintln!(
+            "group {mem:?} n {} size {:.0} {:.0} {:.0} fit {fit:.2} iou {iou:.2} depth {depth_ok:.2} score {score:.2}",
+            all.len(),
+            size[0],
+            size[1],
+            size[2]
+        );
+    }
     if score < cfg.min_score {
         return None;
     }

@@ -42,7 +42,7 @@ pub struct DetectConfig {
     /// Depth jump between neighbouring cells that separates surfaces: constant part, mm. Default 10.
     pub depth_jump_abs_mm: f64,
     /// Depth jump between neighbouring cells that separates surfaces: part relative to depth.
-    /// Default 0.03 (3 % of z; consumer sensors' noise grows ∝ z²).
+    /// Default 0.02 (2 % of z; consumer sensors' noise grows ∝ z²).
     pub depth_jump_rel: f64,
     /// Normal change across a pair of cells (compared `normal_radius_cells` outside) that
     /// separates faces, degrees. Default 30 (a box fold is 90°).
@@ -93,8 +93,8 @@ pub struct DetectConfig {
     /// A cell belongs to a support plane when its normal is within this angle of the plane's,
     /// degrees. Default 20.
     pub support_normal_tol_deg: f64,
-    /// A cell belongs to a support plane when within this multiple of the plane tolerance.
-    /// Default 1.5.
+    /// A cell belongs to a support plane when within this multiple of the plane tolerance
+    /// (and single-face candidates within it are support fragments). Default 2.5.
     pub support_tol_factor: f64,
     /// Faces need at least this many cells. Default 25.
     pub min_face_cells: u32,
@@ -117,10 +117,10 @@ pub struct DetectConfig {
     /// Extents are measured between these quantiles of the points (and 1 − it). Default 0.02.
     pub extent_quantile: f64,
     /// Candidates with an observed dimension above this are rejected (pallets, shelf beams,
-    /// walls), mm. Default 1000.
+    /// walls, whole pallet loads), mm. Default 800.
     pub max_box_extent_mm: f64,
     /// Candidates with an observed dimension below this are rejected (too small to estimate),
-    /// mm. Default 15.
+    /// mm. Default 25 (the benchmark's smallest boxes are 40 mm).
     pub min_box_extent_mm: f64,
     /// Depth consistency: a cell inside the cuboid's silhouette that the sensor sees this far
     /// (plus twice the plane tolerance) behind the cuboid's surface is a see-through violation,
@@ -139,7 +139,7 @@ pub struct DetectConfig {
     /// "Next to" for `split_min_seam_cells`: within this many cells. Default 3.
     pub split_seam_reach_cells: u32,
     /// Colour-level candidates count for a split when they hold at least this fraction of the
-    /// surface-level candidate's cells. Default 0.15.
+    /// surface-level candidate's cells. Default 0.03.
     pub split_min_fraction: f64,
     /// A candidate is dropped when more than this fraction of its cells belongs to a better
     /// one. Default 0.3.
@@ -153,7 +153,7 @@ impl Default for DetectConfig {
             smooth_radius_cells: 2,
             normal_radius_cells: 2,
             depth_jump_abs_mm: 10.0,
-            depth_jump_rel: 0.03,
+            depth_jump_rel: 0.02,
             normal_cut_deg: 30.0,
             colour_cut: 12.0,
             seam_valley_levels: 12.0,
@@ -172,7 +172,7 @@ impl Default for DetectConfig {
             support_ransac_planes: 3,
             support_ransac_iters: 150,
             support_normal_tol_deg: 20.0,
-            support_tol_factor: 1.5,
+            support_tol_factor: 2.5,
             min_face_cells: 25,
             contact_gap_cells: 12,
             edge_tol_factor: 3.0,
@@ -181,15 +181,15 @@ impl Default for DetectConfig {
             convex_margin_mm: 5.0,
             edge_length_ratio: 0.4,
             extent_quantile: 0.02,
-            max_box_extent_mm: 1000.0,
-            min_box_extent_mm: 15.0,
+            max_box_extent_mm: 800.0,
+            min_box_extent_mm: 25.0,
             see_through_margin_mm: 10.0,
             one_face_factor: 0.7,
             two_face_factor: 0.9,
             min_score: 0.3,
             split_min_seam_cells: 6,
             split_seam_reach_cells: 3,
-            split_min_fraction: 0.15,
+            split_min_fraction: 0.03,
             max_overlap: 0.3,
         }
     }
@@ -268,11 +268,11 @@ pub fn detect_boxes(
     let joins = regions::joins(&g, rgb.is_some(), &g.seam, cfg);
     // Two levels: smooth surfaces regardless of colour (a box face with its tape, labels and
     // print), and colour-uniform patches (which separate flush cartons).
-    let (mut geo_labels, surfaces) = regions::segment(&g, &joins, true, cfg);
-    let (mut col_labels, patches) = regions::segment(&g, &joins, false, cfg);
+    let (geo_labels, surfaces) = regions::segment(&g, &joins, true, None, cfg);
     let (on_support, planes) = boxes::support_mask(&g, &geo_labels, &surfaces, cfg);
-    let surfaces = boxes::strip_support(&g, &mut geo_labels, surfaces.len(), &on_support, cfg);
-    let patches = boxes::strip_support(&g, &mut col_labels, patches.len(), &on_support, cfg);
+    // Segment again without the support cells: what leaked into a support becomes its own.
+    let (geo_labels, surfaces) = regions::segment(&g, &joins, true, Some(&on_support), cfg);
+    let (col_labels, patches) = regions::segment(&g, &joins, false, Some(&on_support), cfg);
     let geo = boxes::group_candidates(&g, &geo_labels, &surfaces, cfg);
     let geo = boxes::drop_support_fragments(&g, geo, &planes, cfg);
     let col = boxes::group_candidates(&g, &col_labels, &patches, cfg);
@@ -321,11 +321,10 @@ pub fn segment_labels(
     validate(rgb, depth, intrinsics)?;
     let g = grid::Grid::build(rgb, depth, intrinsics, cfg);
     let joins = regions::joins(&g, rgb.is_some(), &g.seam, cfg);
-    let (mut geo_labels, surfaces) = regions::segment(&g, &joins, true, cfg);
-    let (mut col_labels, patches) = regions::segment(&g, &joins, false, cfg);
+    let (geo_labels, surfaces) = regions::segment(&g, &joins, true, None, cfg);
     let (on_support, _) = boxes::support_mask(&g, &geo_labels, &surfaces, cfg);
-    boxes::strip_support(&g, &mut geo_labels, surfaces.len(), &on_support, cfg);
-    boxes::strip_support(&g, &mut col_labels, patches.len(), &on_support, cfg);
+    let (geo_labels, _) = regions::segment(&g, &joins, true, Some(&on_support), cfg);
+    let (col_labels, _) = regions::segment(&g, &joins, false, Some(&on_support), cfg);
     let sup: Vec<u32> = on_support.iter().map(|&b| b as u32).collect();
     let seam: Vec<u32> = g.seam.iter().map(|&b| b as u32).collect();
     let (fw, fh) = (depth.width as usize, depth.height as usize);

@@ -195,25 +195,31 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
 }
 
 /// Labels every grid cell with a region index (or [`NONE`]) by union-find over the joins
-/// (`geometric_only`: surfaces regardless of colour) and fits the regions' planes. Regions
+/// (`geometric_only`: surfaces regardless of colour; `exclude`d cells stay unlabelled and join
+/// nothing) and fits the regions' planes. Regions
 /// smaller than `min_region_cells` are dropped.
 pub(crate) fn segment(
     g: &Grid,
     joins: &Joins,
     geometric_only: bool,
+    exclude: Option<&[bool]>,
     cfg: &DetectConfig,
 ) -> (Vec<u32>, Vec<Region>) {
     let (w, h) = (g.w, g.h);
     let bits = if geometric_only { &joins.geo } else { &joins.all };
+    let out = |i: usize| exclude.is_some_and(|e| e[i]);
     let mut dsu = Dsu::new(w * h);
     for v in 0..h {
         for u in 0..w {
             let i = v * w + u;
+            if out(i) {
+                continue;
+            }
             let b = bits[i];
-            if b & 1 != 0 {
+            if b & 1 != 0 && !out(i + 1) {
                 dsu.union(i as u32, (i + 1) as u32);
             }
-            if b & 2 != 0 {
+            if b & 2 != 0 && !out(i + w) {
                 dsu.union(i as u32, (i + w) as u32);
             }
         }
@@ -224,7 +230,7 @@ pub(crate) fn segment(
     let mut labels = vec![NONE; w * h];
     let mut n_regions = 0u32;
     for i in 0..w * h {
-        if g.z[i] <= 0.0 {
+        if g.z[i] <= 0.0 || out(i) {
             continue;
         }
         let root = dsu.find(i as u32) as usize;
