@@ -542,6 +542,11 @@ mod bench {
                 c
             }),
             ("oracle", Config::paper()),
+            ("pf-grow", {
+                let mut c = Config::anybox();
+                c.scale.grow_check = true;
+                c
+            }),
             ("no-dfilter", Config::anybox().no_depth_filter()),
             ("pf-frac10", {
                 let mut c = Config::anybox();
