@@ -542,9 +542,9 @@ mod bench {
                 c
             }),
             ("oracle", Config::paper()),
-            ("pf-grow", {
+            ("pf-blocked", {
                 let mut c = Config::anybox();
-                c.scale.grow_check = true;
+                c.scale.blocked_axes_from_context = true;
                 c
             }),
             ("no-dfilter", Config::anybox().no_depth_filter()),
