@@ -20,7 +20,7 @@ use crate::context::{infer_hidden, share_layer_heights, ContextInputs, HiddenSou
 use crate::error::EstimateError;
 use crate::observation::{observe, Observation};
 use crate::pose::estimate_pose;
-use crate::scale::{observed_axes_mask, scale_search, PoseSample, ScaleInputs, ScaleMode};
+use crate::scale::{observed_faces, scale_search, PoseSample, ScaleInputs, ScaleMode};
 use crate::silhouette::mask_pixels;
 
 /// One estimated box.
@@ -109,7 +109,8 @@ fn stage_one(
     let mut score = out.score;
     let mut depth_penalty = out.depth_penalty;
     let mut pose_calls = out.pose_calls;
-    let observed = observed_axes_mask(&pose, &inputs, &cfg.context).0;
+    let upgrade = cfg.scale.pixel_face_upgrade && cfg.scale.mode == ScaleMode::PointFit;
+    let observed = observed_faces(&pose, &inputs, &cfg.context, upgrade).0;
     let mut sources = observed.map(|o| {
         if o {
             HiddenSource::Observed
@@ -542,9 +543,9 @@ mod bench {
                 c
             }),
             ("oracle", Config::paper()),
-            ("pf-blocked", {
+            ("pf-pixup", {
                 let mut c = Config::anybox();
-                c.scale.blocked_axes_from_context = true;
+                c.scale.pixel_face_upgrade = true;
                 c
             }),
             ("no-dfilter", Config::anybox().no_depth_filter()),
