@@ -219,7 +219,11 @@ fn main() {
             views: 1,
             distractors,
             seed: 7,
-            noise: NoiseModel::Realistic,
+            noise: if std::env::var("NOISE").is_ok_and(|n| n == "none") {
+                NoiseModel::None
+            } else {
+                NoiseModel::Realistic
+            },
             ..SynthConfig::default()
         };
         let mut tally = Tally::default();

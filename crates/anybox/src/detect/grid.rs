@@ -133,7 +133,8 @@ impl Grid {
 }
 
 /// Thin dark lines: a pixel darker than both pixels two to either side (along a row or a
-/// column) by more than `seam_valley_levels`, on luminance averaged over 3 px along the line
+/// column) by more than `seam_valley_levels` and by more than `seam_valley_rel` of their
+/// brightness, on luminance averaged over 3 px along the line
 /// (sensor noise drops, the line does not); a cell is a seam cell when it holds at least
 /// `seam_min_pixels` such pixels.
 fn seams(img: &RgbImage, w: usize, h: usize, step: usize, cfg: &DetectConfig) -> Vec<bool> {
@@ -155,12 +156,17 @@ fn seams(img: &RgbImage, w: usize, h: usize, step: usize, cfg: &DetectConfig) ->
     }
     // Both sums cover 9 channel values: levels × 9.
     let t = (cfg.seam_valley_levels * 9.0) as i32;
+    let rel = cfg.seam_valley_rel;
     let mut count = vec![0u16; w * h];
     for v in 3..fh.saturating_sub(3) {
         for u in 3..fw.saturating_sub(3) {
             let i = v * fw + u;
-            let hx = col3[i - 2].min(col3[i + 2]) - col3[i] > t;
-            let vy = row3[i - 2 * fw].min(row3[i + 2 * fw]) - row3[i] > t;
+            let bx = col3[i - 2].min(col3[i + 2]);
+            let by = row3[i - 2 * fw].min(row3[i + 2 * fw]);
+            // Absolute and relative depth of the valley: printed grain and fibre (a few per
+            // cent of the brightness) are not seams.
+            let hx = bx - col3[i] > t && (bx - col3[i]) as f64 > rel * bx as f64;
+            let vy = by - row3[i] > t && (by - row3[i]) as f64 > rel * by as f64;
             if hx || vy {
                 count[(v / step) * w + u / step] += 1;
             }

@@ -54,8 +54,19 @@ pub struct DetectConfig {
     /// on a thin dark line (seam between flush cartons, printed edge), luminance levels; 0
     /// disables seams. Default 12.
     pub seam_valley_levels: f64,
+    /// ... and darker by at least this fraction of their brightness (cardboard grain and fibre
+    /// vary by a few per cent). Default 0.12.
+    pub seam_valley_rel: f64,
     /// A grid cell with at least this many seam pixels separates regions. Default 1.
     pub seam_min_pixels: u32,
+    /// Tape and printed bands narrower than this that cut a face in two are bridged (the two
+    /// halves become one region), mm; 0 disables. Default 90 (tape is 40–60 mm wide).
+    pub tape_max_width_mm: f64,
+    /// Bridged halves differ in mean colour by at most this, RGB levels. Default 25.
+    pub tape_colour_delta: f64,
+    /// Bridged halves overlap along the strip by at least this fraction of the shorter.
+    /// Default 0.7.
+    pub tape_overlap: f64,
     /// Regions with fewer cells are dropped (noise, edge bands). Default 20.
     pub min_region_cells: u32,
     /// Plane tolerance, constant part, mm. Default 4.
@@ -157,7 +168,11 @@ impl Default for DetectConfig {
             normal_cut_deg: 30.0,
             colour_cut: 12.0,
             seam_valley_levels: 12.0,
+            seam_valley_rel: 0.12,
             seam_min_pixels: 1,
+            tape_max_width_mm: 90.0,
+            tape_colour_delta: 25.0,
+            tape_overlap: 0.7,
             min_region_cells: 20,
             plane_tol_abs_mm: 4.0,
             plane_tol_quad_mm: 6.0,
@@ -272,7 +287,9 @@ pub fn detect_boxes(
     let (on_support, planes) = boxes::support_mask(&g, &geo_labels, &surfaces, cfg);
     // Segment again without the support cells: what leaked into a support becomes its own.
     let (geo_labels, surfaces) = regions::segment(&g, &joins, true, Some(&on_support), cfg);
-    let (col_labels, patches) = regions::segment(&g, &joins, false, Some(&on_support), cfg);
+    let (mut col_labels, patches) = regions::segment(&g, &joins, false, Some(&on_support), cfg);
+    let n_patches = regions::bridge_tape(&g, &mut col_labels, &patches, cfg);
+    let patches = regions::fit_regions(&g, &col_labels, n_patches, cfg);
     let geo = boxes::group_candidates(&g, &geo_labels, &surfaces, cfg);
     let geo = boxes::drop_support_fragments(&g, geo, &planes, cfg);
     let col = boxes::group_candidates(&g, &col_labels, &patches, cfg);

@@ -334,3 +334,165 @@ pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig
     }
     regions
 }
+
+/// Rejoins the two halves of a carton face that tape (or a printed band) cuts in two: for a
+/// thin strip region T (narrower than `tape_max_width_mm`), two coplanar regions of similar
+/// colour on opposite sides of it whose extents along the strip overlap (same carton) become one
+/// region, together with the strip cells between them. Neighbouring cartons do not overlap along
+/// the strip, and a seam separates them anyway. Returns the new number of regions (labels are
+/// compacted and the regions refitted by the caller).
+pub(crate) fn bridge_tape(
+    g: &Grid,
+    labels: &mut [u32],
+    regions: &[Region],
+    cfg: &DetectConfig,
+) -> usize {
+    let n = regions.len();
+    if n == 0 || cfg.tape_max_width_mm <= 0.0 {
+        return n;
+    }
+    let (w, h) = (g.w, g.h);
+    let mut cells: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (i, &l) in labels.iter().enumerate() {
+        if l != NONE {
+            cells[l as usize].push(i);
+        }
+    }
+    // Neighbours within a few cells along rows and columns.
+    let gap = 6usize;
+    let mut nb: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for v in 0..h {
+        for u in 0..w {
+            let a = labels[v * w + u];
+            if a == NONE {
+                continue;
+            }
+            for (du, dv) in [(1usize, 0usize), (0, 1)] {
+                for d in 1..=gap {
+                    let (uu, vv) = (u + du * d, v + dv * d);
+                    if uu >= w || vv >= h {
+                        break;
+                    }
+                    let b = labels[vv * w + uu];
+                    if b == a {
+                        break;
+                    }
+                    if b == NONE {
+                        continue;
+                    }
+                    let (a, b) = (a as usize, b as usize);
+                    if !nb[a].contains(&b) {
+                        nb[a].push(b);
+                        nb[b].push(a);
+                    }
+                    break;
+                }
+            }
+        }
+    }
+    let pt = |i: usize| Vector3::new(g.p[i][0] as f64, g.p[i][1] as f64, g.p[i][2] as f64);
+    let cos_par = cfg.perpendicular_tol_deg.to_radians().cos();
+    let coplanar = |a: &Region, b: &Region| -> bool {
+        a.normal.dot(&b.normal) >= cos_par
+            && a.dist(&[b.centroid.x as f32, b.centroid.y as f32, b.centroid.z as f32]).abs()
+                <= 3.0 * plane_tol(cfg, b.centroid.z)
+    };
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(p: &mut [usize], mut x: usize) -> usize {
+        while p[x] != x {
+            p[x] = p[p[x]];
+            x = p[x];
+        }
+        x
+    }
+    let mut strip_moves: Vec<(usize, usize, f64, f64, Vector3<f64>)> = Vec::new();
+    for t in 0..n {
+        let rt = &regions[t];
+        if cells[t].len() < 4 || nb[t].len() < 2 {
+            continue;
+        }
+        // Strip axis: the principal in-plane direction of T.
+        let mut cov = nalgebra::Matrix3::<f64>::zeros();
+        for &i in &cells[t] {
+            let d = pt(i) - rt.centroid;
+            cov += d * d.transpose();
+        }
+        let eig = SymmetricEigen::new(cov);
+        let k = eig.eigenvalues.imax();
+        let axis: Vector3<f64> = eig.eigenvectors.column(k).into_owned();
+        let across = rt.normal.cross(&axis);
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for &i in &cells[t] {
+            let x = (pt(i) - rt.centroid).dot(&across);
+            lo = lo.min(x);
+            hi = hi.max(x);
+        }
+        if hi - lo > cfg.tape_max_width_mm {
+            continue;
+        }
+        let range = |r: usize, dir: &Vector3<f64>| -> (f64, f64) {
+            let (mut a, mut b) = (f64::INFINITY, f64::NEG_INFINITY);
+            for &i in &cells[r] {
+                let x = (pt(i) - rt.centroid).dot(dir);
+                a = a.min(x);
+                b = b.max(x);
+            }
+            (a, b)
+        };
+        let sides: Vec<usize> = nb[t]
+            .iter()
+            .copied()
+            .filter(|&a| coplanar(rt, &regions[a]))
+            .collect();
+        for (x, &a) in sides.iter().enumerate() {
+            for &b in &sides[x + 1..] {
+                let (ra, rb) = (&regions[a], &regions[b]);
+                let ca = (ra.centroid - rt.centroid).dot(&across);
+                let cb = (rb.centroid - rt.centroid).dot(&across);
+                if ca * cb >= 0.0 {
+                    continue;
+                }
+                let dc: f64 = (0..3).map(|c| (ra.colour[c] - rb.colour[c]).powi(2)).sum();
+                if dc.sqrt() > cfg.tape_colour_delta {
+                    continue;
+                }
+                let (a0, a1) = range(a, &axis);
+                let (b0, b1) = range(b, &axis);
+                let overlap = a1.min(b1) - a0.max(b0);
+                if overlap < cfg.tape_overlap * (a1 - a0).min(b1 - b0) {
+                    continue;
+                }
+                let (x0, x1) = (a0.max(b0), a1.min(b1));
+                let ra_ = root(&mut parent, a);
+                let rb_ = root(&mut parent, b);
+                parent[rb_] = ra_;
+                strip_moves.push((t, a, x0, x1, axis));
+            }
+        }
+    }
+    // Strip cells between a bridged pair join it.
+    for (t, a, x0, x1, axis) in strip_moves {
+        let c0 = regions[t].centroid;
+        for &i in &cells[t] {
+            let x = (pt(i) - c0).dot(&axis);
+            if x >= x0 && x <= x1 {
+                labels[i] = a as u32;
+            }
+        }
+    }
+    // Compact: every label to its root, roots renumbered in order.
+    let mut new_id = vec![NONE; n];
+    let mut next = 0u32;
+    for l in labels.iter_mut() {
+        if *l == NONE {
+            continue;
+        }
+        let r = root(&mut parent, *l as usize);
+        if new_id[r] == NONE {
+            new_id[r] = next;
+            next += 1;
+        }
+        *l = new_id[r];
+    }
+    next as usize
+}
