@@ -543,9 +543,9 @@ mod bench {
                 c
             }),
             ("oracle", Config::paper()),
-            ("pf-pixup", {
+            ("pf-noblocked", {
                 let mut c = Config::anybox();
-                c.scale.pixel_face_upgrade = true;
+                c.scale.blocked_axes_from_context = false;
                 c
             }),
             ("no-dfilter", Config::anybox().no_depth_filter()),
@@ -607,6 +607,7 @@ mod bench {
                                         .fold(0.0, f64::max);
                                     rot = rot.max(m.clamp(-1.0, 1.0).acos().to_degrees());
                                 }
+                                print!("  s{} ", v.scene_id);
                                 println!(
                                     "  iou {i:.3} vis {:.2} od {} flags {:?} gt {:.0?} est {:.0?} dc {:.1} rot {:.1} sup {:?}",
                                     b.visib_fract, od.count, e.observed_axes, gs, es,
