@@ -21,6 +21,7 @@ struct Tally {
     times_ms: Vec<f64>,
     frames_all_found: usize,
     frames: usize,
+    merged: usize,
 }
 
 impl Tally {
@@ -57,7 +58,7 @@ impl Tally {
         t.sort_by(|a, b| a.total_cmp(b));
         let med = t.get(t.len() / 2).copied().unwrap_or(0.0);
         format!(
-            "{name:<14} frames {:>3} gt {:>4} det {:>4} tp {:>4} fp {:>4} ign {:>3} | P {:.3} R {:.3} AP50 {:.3} | all-found frames {}/{} | median {:.1} ms",
+            "{name:<14} frames {:>3} gt {:>4} det {:>4} tp {:>4} fp {:>4} ign {:>3} | P {:.3} R {:.3} AP50 {:.3} | all-found frames {}/{} | merged {} | median {:.1} ms",
             self.frames,
             self.n_gt,
             self.scored.len(),
@@ -69,6 +70,7 @@ impl Tally {
             self.ap(),
             self.frames_all_found,
             self.frames,
+            self.merged,
             med
         )
     }
@@ -91,6 +93,20 @@ fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], tally: &mut Tally) {
     let want: Vec<bool> = gts.iter().map(|g| g.1 >= 0.5).collect();
     tally.n_gt += want.iter().filter(|x| **x).count();
     for d in dets {
+        let mut inter_all = vec![0usize; n];
+        for (i, &b) in d.mask.data.iter().enumerate() {
+            if b {
+                if let Some(&l) = label.get(i) {
+                    if (l as usize) < n {
+                        inter_all[l as usize] += 1;
+                    }
+                }
+            }
+        }
+        let covering = (0..n).filter(|&k| gt_area[k] > 500 && inter_all[k] * 2 > gt_area[k]).count();
+        if covering >= 2 {
+            tally.merged += 1;
+        }
         let mut inter = vec![0usize; n];
         let mut area = 0usize;
         for (i, &b) in d.mask.data.iter().enumerate() {

@@ -278,6 +278,7 @@ fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
             normal,
             inlier_frac: 1.0,
             normal_spread_deg: 0.0,
+            bend_deg: 0.0,
             colour: [0.0; 3],
             area_mm2: area,
         };
@@ -362,6 +363,7 @@ fn is_face(r: &Region, cfg: &DetectConfig) -> bool {
     r.n >= cfg.min_face_cells as usize
         && r.inlier_frac >= cfg.min_plane_inlier_frac
         && r.normal_spread_deg <= cfg.max_normal_spread_deg
+        && r.bend_deg <= cfg.max_bend_deg
 }
 
 /// Robust range (low and high quantiles) of values.

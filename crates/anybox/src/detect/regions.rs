@@ -29,6 +29,10 @@ pub(crate) struct Region {
     pub inlier_frac: f64,
     /// Mean angle between cell normals and the plane normal, degrees.
     pub normal_spread_deg: f64,
+    /// Bend: the largest angle between the plane normals of the region's two halves, split
+    /// across either in-plane principal axis, degrees (a sphere or cylinder patch bends, a
+    /// plane does not; fitted on many cells, it is robust to per-cell noise).
+    pub bend_deg: f64,
     /// Mean colour.
     pub colour: [f64; 3],
     /// Area of the patch, mm² (sum of the cells' footprints on the plane).
@@ -292,11 +296,31 @@ pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig
                 normal,
                 inlier_frac: 0.0,
                 normal_spread_deg: 90.0,
+                bend_deg: 90.0,
                 colour: col[l].map(|x| x / m),
                 area_mm2: 0.0,
             }
         })
         .collect();
+    // In-plane principal axes, for the bend test.
+    let axes: Vec<[Vector3<f64>; 2]> = (0..n)
+        .map(|l| {
+            let m = cnt[l].max(1) as f64;
+            let c = s1[l] / m;
+            let cov = s2[l] / m - c * c.transpose();
+            let eig = SymmetricEigen::new(cov);
+            let mut idx = [0usize, 1, 2];
+            idx.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+            [
+                eig.eigenvectors.column(idx[0]).into_owned(),
+                eig.eigenvectors.column(idx[1]).into_owned(),
+            ]
+        })
+        .collect();
+    // Per region, per axis, per half: count, sum, sum of outer products.
+    let mut hc = vec![[[0usize; 2]; 2]; n];
+    let mut hs1 = vec![[[Vector3::<f64>::zeros(); 2]; 2]; n];
+    let mut hs2 = vec![[[Matrix3::<f64>::zeros(); 2]; 2]; n];
     let mut inl = vec![0usize; n];
     let mut ndot = vec![0f64; n];
     let mut nknown = vec![0usize; n];
@@ -308,6 +332,13 @@ pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig
         }
         let reg = &regions[l as usize];
         let z = g.p[i][2] as f64;
+        let p = Vector3::new(g.p[i][0] as f64, g.p[i][1] as f64, z);
+        for (a, ax) in axes[l as usize].iter().enumerate() {
+            let side = ((p - reg.centroid).dot(ax) > 0.0) as usize;
+            hc[l as usize][a][side] += 1;
+            hs1[l as usize][a][side] += p;
+            hs2[l as usize][a][side] += p * p.transpose();
+        }
         if reg.dist(&g.p[i]).abs() <= plane_tol(cfg, z) {
             inl[l as usize] += 1;
         }
@@ -331,6 +362,27 @@ pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig
             90.0
         };
         reg.area_mm2 = area[l];
+        let mut bend = 0.0f64;
+        for a in 0..2 {
+            let mut ns = [Vector3::zeros(); 2];
+            let mut ok = true;
+            for side in 0..2 {
+                let m = hc[l][a][side];
+                if m < 6 {
+                    ok = false;
+                    break;
+                }
+                let c = hs1[l][a][side] / m as f64;
+                let cov = hs2[l][a][side] / m as f64 - c * c.transpose();
+                let eig = SymmetricEigen::new(cov);
+                ns[side] = eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
+            }
+            if ok {
+                let cos = ns[0].dot(&ns[1]).abs().min(1.0);
+                bend = bend.max(cos.acos().to_degrees());
+            }
+        }
+        reg.bend_deg = bend;
     }
     regions
 }

@@ -1,0 +1,357 @@
+//! Tests of the detector: analytic ray-cast scenes (a table with a box, a sphere, a cylinder)
+//! and generated pallets (`anybox_synth`).
+
+use anybox_geom::projection::ray_box_intersection;
+use anybox_geom::{Intrinsics, OrientedBox};
+use anybox_io::{DepthMap, Mask, RgbImage};
+use anybox_synth::{generate_view, Layout, NoiseModel, SynthConfig};
+use nalgebra::{Point3, Rotation3, Vector3};
+
+use super::*;
+
+const W: u32 = 640;
+const H: u32 = 480;
+
+fn k() -> Intrinsics {
+    Intrinsics {
+        fx: 600.0,
+        fy: 600.0,
+        cx: 319.5,
+        cy: 239.5,
+    }
+}
+
+/// Objects of the analytic scene, in the camera frame (mm).
+enum Obj {
+    Sphere { c: Vector3<f64>, r: f64 },
+    /// Upright cylinder: base centre, axis (unit), radius, height.
+    Cylinder { base: Vector3<f64>, axis: Vector3<f64>, r: f64, h: f64 },
+    Cuboid(OrientedBox),
+}
+
+/// A table seen from 50° above at 1 m, plus objects; returns RGB, depth (1 mm quantised,
+/// deterministic ±1 mm noise) and per-pixel object index (`u8::MAX` = table).
+struct Scene {
+    up: Vector3<f64>,
+    p0: Vector3<f64>,
+}
+
+impl Scene {
+    fn new() -> Self {
+        let el = 50f64.to_radians();
+        Scene {
+            up: Vector3::new(0.0, -el.cos(), -el.sin()),
+            p0: Vector3::new(0.0, 0.0, 1000.0),
+        }
+    }
+
+    /// A point resting on the table at image-plane offset (x, y) mm from the table centre.
+    fn on_table(&self, x: f64, along: f64, height: f64) -> Vector3<f64> {
+        let right = Vector3::x();
+        let fwd = self.up.cross(&right).normalize();
+        self.p0 + right * x + fwd * along + self.up * height
+    }
+
+    fn render(&self, objs: &[Obj]) -> (RgbImage, DepthMap, Vec<u8>) {
+        let kk = k();
+        let mut rgb = RgbImage::new(W, H);
+        let mut depth = DepthMap::zeros(W, H);
+        let mut owner = vec![u8::MAX; (W * H) as usize];
+        for v in 0..H {
+            for u in 0..W {
+                let r = Vector3::new((u as f64 - kk.cx) / kk.fx, (v as f64 - kk.cy) / kk.fy, 1.0);
+                // Table.
+                let den = self.up.dot(&r);
+                let mut best: Option<(f64, Vector3<f64>, [f64; 3], u8)> = None;
+                if den.abs() > 1e-9 {
+                    let t = self.up.dot(&self.p0) / den;
+                    if t > 0.0 {
+                        best = Some((t, self.up, [0.55, 0.4, 0.25], u8::MAX));
+                    }
+                }
+                for (oi, o) in objs.iter().enumerate() {
+                    let hit = match o {
+                        Obj::Sphere { c, r: rad } => {
+                            // |t r − c|² = rad²
+                            let a = r.dot(&r);
+                            let b = -2.0 * r.dot(c);
+                            let cc = c.dot(c) - rad * rad;
+                            let disc = b * b - 4.0 * a * cc;
+                            (disc >= 0.0).then(|| {
+                                let t = (-b - disc.sqrt()) / (2.0 * a);
+                                (t, (r * t - c) / *rad, [0.2, 0.3, 0.8])
+                            })
+                        }
+                        Obj::Cylinder { base, axis, r: rad, h } => {
+                            let mut res: Option<(f64, Vector3<f64>, [f64; 3])> = None;
+                            // Side: distance of t·r from the axis line = rad.
+                            let rp = r - axis * r.dot(axis);
+                            let bp = -(base - axis * base.dot(axis));
+                            let a = rp.dot(&rp);
+                            let b = 2.0 * rp.dot(&bp);
+                            let cc = bp.dot(&bp) - rad * rad;
+                            let disc = b * b - 4.0 * a * cc;
+                            if disc >= 0.0 && a > 1e-12 {
+                                let t = (-b - disc.sqrt()) / (2.0 * a);
+                                let p = r * t;
+                                let s = (p - base).dot(axis);
+                                if t > 0.0 && (0.0..=*h).contains(&s) {
+                                    let radial = (p - base) - axis * s;
+                                    res = Some((t, radial / *rad, [0.7, 0.2, 0.6]));
+                                }
+                            }
+                            // Top cap.
+                            let top = base + axis * *h;
+                            let den = axis.dot(&r);
+                            if den.abs() > 1e-9 {
+                                let t = axis.dot(&top) / den;
+                                if t > 0.0 && (r * t - top).norm() <= *rad
+                                    && res.is_none_or(|x| t < x.0)
+                                {
+                                    res = Some((t, *axis, [0.7, 0.2, 0.6]));
+                                }
+                            }
+                            res
+                        }
+                        Obj::Cuboid(b) => ray_box_intersection(&Point3::origin(), &r, b).and_then(
+                            |(t, _, ax)| {
+                                (t > 0.0).then(|| {
+                                    let mut n = b.axis(ax);
+                                    if n.dot(&r) > 0.0 {
+                                        n = -n;
+                                    }
+                                    // A darker top so that faces differ also in colour.
+                                    let col = if ax == 2 {
+                                        [0.55, 0.45, 0.3]
+                                    } else {
+                                        [0.75, 0.6, 0.4]
+                                    };
+                                    (t, n, col)
+                                })
+                            },
+                        ),
+                    };
+                    if let Some((t, n, col)) = hit {
+                        if t > 0.0 && best.as_ref().is_none_or(|x| t < x.0) {
+                            best = Some((t, n, col, oi as u8));
+                        }
+                    }
+                }
+                let i = (v * W + u) as usize;
+                if let Some((t, n, col, oi)) = best {
+                    // Deterministic ±1 mm noise, then 1 mm quantisation.
+                    let hsh = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 61;
+                    depth.depth_mm[i] = (t + hsh as f64 / 4.0 - 1.0).round() as f32;
+                    let shade = 0.35 + 0.65 * n.dot(&(-r.normalize())).abs();
+                    let px = col.map(|c| (c * shade * 255.0).round().clamp(0.0, 255.0) as u8);
+                    rgb.put_pixel(u, v, image::Rgb(px));
+                    owner[i] = oi;
+                }
+            }
+        }
+        (rgb, depth, owner)
+    }
+}
+
+fn mask_of(owner: &[u8], id: u8) -> Mask {
+    Mask {
+        width: W,
+        height: H,
+        data: owner.iter().map(|&o| o == id).collect(),
+    }
+}
+
+fn iou(a: &Mask, b: &Mask) -> f64 {
+    let (mut i, mut u) = (0usize, 0usize);
+    for (x, y) in a.data.iter().zip(&b.data) {
+        i += (*x && *y) as usize;
+        u += (*x || *y) as usize;
+    }
+    i as f64 / u.max(1) as f64
+}
+
+fn table_box(s: &Scene) -> OrientedBox {
+    let size = Vector3::new(200.0, 150.0, 100.0);
+    let right = Vector3::x();
+    let fwd = s.up.cross(&right).normalize();
+    // Yawed by 25° about the table normal.
+    let yaw = Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(s.up), 25f64.to_radians());
+    let m = nalgebra::Matrix3::from_columns(&[yaw * right, yaw * fwd, s.up]);
+    OrientedBox {
+        rotation: Rotation3::from_matrix_unchecked(m),
+        center_mm: s.on_table(-60.0, 0.0, size.z / 2.0),
+        size_mm: size,
+    }
+}
+
+#[test]
+fn box_on_table_is_found_with_its_faces() {
+    let s = Scene::new();
+    let (rgb, depth, owner) = s.render(&[Obj::Cuboid(table_box(&s))]);
+    let dets = detect_boxes(Some(&rgb), &depth, &k(), &DetectConfig::default()).unwrap();
+    let gt = mask_of(&owner, 0);
+    assert_eq!(dets.len(), 1, "one box, one detection: {:?}", dets.iter().map(|d| (d.score, d.mask.count())).collect::<Vec<_>>());
+    let d = &dets[0];
+    assert!(iou(&d.mask, &gt) > 0.85, "mask IoU {}", iou(&d.mask, &gt));
+    assert!(d.n_faces >= 2, "top and sides grouped: {} faces", d.n_faces);
+    assert!(d.score > 0.5 && d.score <= 1.0, "score {}", d.score);
+    // Depth alone finds it too.
+    let dets = detect_boxes(None, &depth, &k(), &DetectConfig::default()).unwrap();
+    assert!(dets.iter().any(|d| iou(&d.mask, &gt) > 0.85));
+}
+
+#[test]
+fn empty_table_gives_no_boxes() {
+    let s = Scene::new();
+    let (rgb, depth, _) = s.render(&[]);
+    let dets = detect_boxes(Some(&rgb), &depth, &k(), &DetectConfig::default()).unwrap();
+    assert!(dets.is_empty(), "{} detections on an empty table", dets.len());
+}
+
+#[test]
+fn sphere_and_cylinder_give_no_detection() {
+    let s = Scene::new();
+    let objs = [
+        Obj::Sphere {
+            c: s.on_table(-120.0, 0.0, 70.0),
+            r: 70.0,
+        },
+        Obj::Cylinder {
+            base: s.on_table(120.0, 0.0, 0.0),
+            axis: s.up,
+            r: 45.0,
+            h: 160.0,
+        },
+    ];
+    let (rgb, depth, owner) = s.render(&objs);
+    // The objects are in view.
+    assert!(mask_of(&owner, 0).count() > 5000 && mask_of(&owner, 1).count() > 5000);
+    let dets = detect_boxes(Some(&rgb), &depth, &k(), &DetectConfig::default()).unwrap();
+    assert!(
+        dets.is_empty(),
+        "detections on a sphere and a cylinder: {:?}",
+        dets.iter().map(|d| (d.score, d.n_faces, d.mask.bbox())).collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn touching_pallet_cartons_come_out_separately() {
+    let cfg = SynthConfig {
+        layout: Layout::Pallet,
+        scenes: 3,
+        views: 1,
+        distractors: None,
+        seed: 7,
+        noise: NoiseModel::Realistic,
+        ..SynthConfig::default()
+    };
+    let (mut n_gt, mut found, mut merged) = (0usize, 0usize, 0usize);
+    for s in 0..cfg.scenes {
+        let v = generate_view(&cfg, s, 0);
+        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, &DetectConfig::default())
+            .unwrap();
+        for d in &dets {
+            // A detection covering most of two cartons merged them.
+            let covering = v
+                .boxes
+                .iter()
+                .filter(|b| {
+                    let inter = b
+                        .mask_visib
+                        .data
+                        .iter()
+                        .zip(&d.mask.data)
+                        .filter(|(x, y)| **x && **y)
+                        .count();
+                    b.mask_visib.count() > 500 && inter * 2 > b.mask_visib.count()
+                })
+                .count();
+            merged += (covering >= 2) as usize;
+        }
+        for b in v.boxes.iter().filter(|b| b.visib_fract >= 0.5) {
+            n_gt += 1;
+            found += dets.iter().any(|d| iou(&d.mask, &b.mask_visib) > 0.5) as usize;
+        }
+    }
+    assert!(n_gt >= 10, "pallets hold {n_gt} well-visible cartons");
+    assert_eq!(merged, 0, "detections merging two cartons");
+    // Each found carton has its own detection (IoU > 0.5 with its own mask cannot be shared).
+    assert!(
+        found * 2 >= n_gt,
+        "only {found} of {n_gt} well-visible cartons found as their own instance"
+    );
+}
+
+#[test]
+fn bad_frames_give_clear_errors() {
+    let kk = k();
+    let cfg = DetectConfig::default();
+    let depth = DepthMap::zeros(64, 48);
+    let e = detect_boxes(None, &depth, &kk, &cfg).unwrap_err();
+    assert_eq!(e, DetectError::NoValidDepth { width: 64, height: 48 });
+    assert!(e.to_string().contains("no valid pixel"));
+    let mut nan = DepthMap::zeros(64, 48);
+    nan.depth_mm.iter_mut().for_each(|d| *d = f32::NAN);
+    assert!(matches!(
+        detect_boxes(None, &nan, &kk, &cfg),
+        Err(DetectError::NoValidDepth { .. })
+    ));
+    let mut depth = DepthMap::zeros(64, 48);
+    depth.depth_mm.iter_mut().for_each(|d| *d = 1000.0);
+    let rgb = RgbImage::new(32, 48);
+    let e = detect_boxes(Some(&rgb), &depth, &kk, &cfg).unwrap_err();
+    assert_eq!(
+        e,
+        DetectError::SizeMismatch {
+            rgb_width: 32,
+            rgb_height: 48,
+            depth_width: 64,
+            depth_height: 48
+        }
+    );
+    assert!(e.to_string().contains("32x48") && e.to_string().contains("64x48"));
+    let mut short = depth.clone();
+    short.depth_mm.pop();
+    assert!(matches!(
+        detect_boxes(None, &short, &kk, &cfg),
+        Err(DetectError::BadDepthBuffer { len: 3071, .. })
+    ));
+    let bad_k = Intrinsics { fx: 0.0, ..kk };
+    assert!(matches!(
+        detect_boxes(None, &depth, &bad_k, &cfg),
+        Err(DetectError::BadIntrinsics { .. })
+    ));
+    // A flat patch of valid depth is a valid frame.
+    assert!(detect_boxes(None, &depth, &kk, &cfg).is_ok());
+}
+
+#[test]
+fn deterministic_and_sorted() {
+    let s = Scene::new();
+    let b = table_box(&s);
+    let other = OrientedBox {
+        center_mm: s.on_table(150.0, 60.0, 40.0),
+        size_mm: Vector3::new(120.0, 90.0, 80.0),
+        ..b
+    };
+    let (rgb, depth, _) = s.render(&[Obj::Cuboid(b), Obj::Cuboid(other)]);
+    let cfg = DetectConfig::default();
+    let a = detect_boxes(Some(&rgb), &depth, &k(), &cfg).unwrap();
+    let b2 = detect_boxes(Some(&rgb), &depth, &k(), &cfg).unwrap();
+    assert_eq!(a, b2);
+    assert!(a.windows(2).all(|w| w[0].score >= w[1].score));
+    assert!(a.iter().all(|d| (0.0..=1.0).contains(&d.score) && (1..=3).contains(&d.n_faces)));
+}
+
+#[test]
+fn config_json_partial_and_round_trip() {
+    let c: DetectConfig = serde_json::from_str(r#"{"colour_cut": 20, "min_score": 0.5}"#).unwrap();
+    assert_eq!(c.colour_cut, 20.0);
+    assert_eq!(c.min_score, 0.5);
+    assert_eq!(c.grid_step_px, DetectConfig::default().grid_step_px);
+    let back: DetectConfig = serde_json::from_str(&serde_json::to_string(&c).unwrap()).unwrap();
+    assert_eq!(back, c);
+    // Through the estimator's Config too.
+    let full = crate::config::Config::from_json(r#"{"detect": {"max_box_extent_mm": 500}}"#).unwrap();
+    assert_eq!(full.detect.max_box_extent_mm, 500.0);
+}
