@@ -400,6 +400,7 @@ pub(crate) fn group_candidates(
     g: &Grid,
     labels: &[u32],
     regions: &[Region],
+    on_support: &[bool],
     cfg: &DetectConfig,
 ) -> Vec<Raw> {
     let n = regions.len();
@@ -433,7 +434,7 @@ pub(crate) fn group_candidates(
                     if b == a {
                         break;
                     }
-                    if b == NONE || !face[b as usize] {
+                    if b == NONE {
                         continue;
                     }
                     let (ra, rb) = (&regions[a as usize], &regions[b as usize]);
@@ -449,11 +450,36 @@ pub(crate) fn group_candidates(
                     {
                         *contact.entry((a.min(b), a.max(b))).or_insert(0) += 1;
                     }
-                    break;
+                    if face[b as usize] {
+                        break;
+                    }
                 }
             }
         }
     }
+    // Faces touching a curved surface (a cylinder's cap, a sphere's flat-looking patch) are
+    // parts of round things; contacts with non-faces are not grouped.
+    let curved = |r: usize| {
+        let reg = &regions[r];
+        // Smoothly bent: fits a plane loosely, normals not noisy, but its halves disagree.
+        reg.n >= cfg.min_face_cells as usize
+            && reg.bend_deg > cfg.max_bend_deg
+            && reg.inlier_frac >= cfg.min_plane_inlier_frac
+            && reg.normal_spread_deg <= cfg.max_normal_spread_deg
+    };
+    let mut touches_curved = vec![false; n];
+    for (&(a, b), &c) in &contact {
+        if c >= cfg.min_contact_cells {
+            let (a, b) = (a as usize, b as usize);
+            if face[a] && curved(b) {
+                touches_curved[a] = true;
+            }
+            if face[b] && curved(a) {
+                touches_curved[b] = true;
+            }
+        }
+    }
+    contact.retain(|&(a, b), _| face[a as usize] && face[b as usize]);
     let sin_perp = cfg.perpendicular_tol_deg.to_radians().sin();
     let perp = |a: usize, b: usize| regions[a].normal.dot(&regions[b].normal).abs() <= sin_perp;
     // Extent of a face's cells along a direction (robust).
@@ -536,7 +562,10 @@ pub(crate) fn group_candidates(
         if mem.is_empty() || group_of[gi] != gi || !mem.iter().all(|&f| face[f]) {
             continue;
         }
-        if let Some(c) = score_group(g, labels, regions, &cells, mem, cfg) {
+        if mem.len() == 1 && touches_curved[mem[0]] {
+            continue;
+        }
+        if let Some(c) = score_group(g, labels, regions, on_support, &cells, mem, cfg) {
             out.push(c);
         }
     }
@@ -585,6 +614,7 @@ fn score_group(
     g: &Grid,
     labels: &[u32],
     regions: &[Region],
+    on_support: &[bool],
     cells: &[Vec<u32>],
     mem: &[usize],
     cfg: &DetectConfig,
@@ -647,10 +677,17 @@ fn score_group(
     let mut size = Vector3::zeros();
     let mut centre = Vector3::zeros();
     let mut vals = Vec::with_capacity(pts.len());
+    // A lone face is judged by how well a rectangle covers it: measure it out to its edges
+    // (robust quantiles would cut a disc's rim and flatter it).
+    let q = if mem.len() == 1 {
+        cfg.extent_quantile.min(0.005)
+    } else {
+        cfg.extent_quantile
+    };
     for (k, ax) in axes.iter().enumerate() {
         vals.clear();
         vals.extend(pts.iter().map(|p| p.dot(ax)));
-        let (lo, hi) = robust_range(&mut vals, cfg.extent_quantile);
+        let (lo, hi) = robust_range(&mut vals, q);
         let (lo, hi) = if mem.len() == 1 && k == 0 {
             // A single face: its thickness is unseen; the silhouette test uses the face itself.
             let mid = (lo + hi) / 2.0;
@@ -709,8 +746,9 @@ fn score_group(
             inter += 1;
             continue;
         }
-        // Unlabelled cells (edge bands, noise, holes) are unknown: neither for nor against.
-        if labels[i] == NONE {
+        // Unlabelled cells (edge bands, noise, holes) are unknown: neither for nor against;
+        // support cells are background seen inside the silhouette: against.
+        if labels[i] == NONE && !on_support[i] {
             continue;
         }
         hull_n += 1;
@@ -737,6 +775,10 @@ fn score_group(
         _ => 1.0,
     };
     let score = (fit * iou * depth_ok * faces_factor).clamp(0.0, 1.0);
+    // A lone face must look like a rectangle: a disc (a cylinder's cap) covers π/4 of its box.
+    if mem.len() == 1 && iou < cfg.min_one_face_iou {
+        return None;
+    }
     if dbg && all.len() > 300 {
         eprintln!(
             "group {mem:?} n {} size {:.0} {:.0} {:.0} fit {fit:.2} iou {iou:.2} depth {depth_ok:.2} score {score:.2}",

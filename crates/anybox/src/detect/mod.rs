@@ -143,6 +143,9 @@ pub struct DetectConfig {
     /// Score factor for a single visible face (its thickness is unseen, and flat clutter is
     /// one face too). Default 0.7.
     pub one_face_factor: f64,
+    /// A single-face candidate needs at least this silhouette IoU with its fitted rectangle
+    /// (a disc reaches π/4 ≈ 0.79). Default 0.84.
+    pub min_one_face_iou: f64,
     /// Score factor for two visible faces. Default 0.9.
     pub two_face_factor: f64,
     /// Candidates scoring below this are dropped. Default 0.3.
@@ -204,6 +207,7 @@ impl Default for DetectConfig {
             min_box_extent_mm: 25.0,
             see_through_margin_mm: 10.0,
             one_face_factor: 0.7,
+            min_one_face_iou: 0.84,
             two_face_factor: 0.9,
             min_score: 0.3,
             split_min_seam_cells: 6,
@@ -294,9 +298,9 @@ pub fn detect_boxes(
     let (mut col_labels, patches) = regions::segment(&g, &joins, false, Some(&on_support), cfg);
     let n_patches = regions::bridge_tape(&g, &mut col_labels, &patches, cfg);
     let patches = regions::fit_regions(&g, &col_labels, n_patches, cfg);
-    let geo = boxes::group_candidates(&g, &geo_labels, &surfaces, cfg);
+    let geo = boxes::group_candidates(&g, &geo_labels, &surfaces, &on_support, cfg);
     let geo = boxes::drop_support_fragments(&g, geo, &planes, cfg);
-    let col = boxes::group_candidates(&g, &col_labels, &patches, cfg);
+    let col = boxes::group_candidates(&g, &col_labels, &patches, &on_support, cfg);
     let col = boxes::drop_support_fragments(&g, col, &planes, cfg);
     let chosen = select(&g, geo, col, cfg);
     let mut claimed: Vec<bool> = geo_labels
