@@ -6,8 +6,10 @@ use anyhow::Context as _;
 use clap::Args;
 
 use anybox::bench::{
-    bop_set, default_variants, markdown_table, run_variant, synthetic_set, BenchSet,
+    bop_set, default_variants, detection_sets, detection_table, markdown_table, run_detection,
+    run_variant, synthetic_set, BenchSet,
 };
+use anybox::config::Config;
 use anybox::io::bop::BopDataset;
 
 /// Benchmark the estimator variants (full, no depth filter, no early stopping, canonical size,
@@ -36,6 +38,12 @@ pub struct BenchArgs {
     /// Only run the variants whose name contains this text.
     #[arg(long)]
     pub only: Option<String>,
+    /// Generated views per detection set (pallet; table with 0, 8, 32 distractors; shelf).
+    #[arg(long, default_value_t = 8, value_name = "N")]
+    pub detect_frames: usize,
+    /// Skip the detection rows (`--masks detect`).
+    #[arg(long)]
+    pub no_detect: bool,
     /// Also write the markdown to this file.
     #[arg(long, value_name = "MD")]
     pub markdown: Option<PathBuf>,
@@ -86,6 +94,27 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         println!("{table}");
         md.push_str(&table);
         md.push('\n');
+    }
+    if !args.no_detect {
+        let config = Config::default();
+        let mut rows = Vec::new();
+        for set in detection_sets(args.seed, args.detect_frames) {
+            eprintln!("detection: {} …", set.name);
+            rows.push(run_detection(&set, &config, args.min_visib));
+        }
+        let title = format!(
+            "Detection, generated (realistic noise, seed {}, visib >= {})",
+            args.seed, args.min_visib
+        );
+        let mut table = detection_table(&title, &rows);
+        if let Some(ycbv) = sets.iter().find(|s| s.name.starts_with("ycbv")) {
+            eprintln!("detection: {} …", ycbv.name);
+            let row = run_detection(ycbv, &config, 0.1);
+            table.push('\n');
+            table.push_str(&detection_table("Detection, ycbv-boxes (real)", &[row]));
+        }
+        println!("{table}");
+        md.push_str(&table);
     }
     if let Some(p) = &args.markdown {
         anybox::io::write_atomic(p, md.as_bytes())

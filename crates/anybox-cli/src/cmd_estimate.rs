@@ -10,8 +10,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use anybox::config::Config;
 use anybox::io::bop::BopDataset;
 use anybox::overlay::{draw_boxes, OverlayBox};
-use anybox::runner::{run_dataset_gt_masks, run_frame, DatasetRunOptions, RunOutput};
-use anybox::segmentation::{load_masks, MaskSource};
+use anybox::runner::{run_dataset, run_frame, DatasetMasks, DatasetRunOptions, RunOutput};
+use anybox::segmentation::{detect_masks, load_masks, MaskSource};
 
 /// Estimate 9-DoF boxes. All lengths in files are millimetres: depth PNG value × depth_scale =
 /// depth in mm; output `t` (box centre) and `size` are mm, `R` is row-major box→camera.
@@ -23,9 +23,10 @@ pub struct EstimateArgs {
     /// Dataset mode: the split to run on.
     #[arg(long, default_value = "test")]
     pub split: String,
-    /// Masks. Dataset mode: `gt` (the dataset's mask_visib). Single-frame mode: instance PNG
-    /// files, a folder of them, one label image (each non-zero value an instance), or a
-    /// COCO-RLE JSON as SAM-6D's detection_ism.json (its scores carry through).
+    /// Masks. `detect`: the built-in zero-shot box detector (both modes). Dataset mode: `gt`
+    /// (the dataset's mask_visib). Single-frame mode: instance PNG files, a folder of them, one
+    /// label image (each non-zero value an instance), or a COCO-RLE JSON as SAM-6D's
+    /// detection_ism.json (its scores carry through).
     #[arg(long, num_args = 1.., value_name = "MASKS", required = true)]
     pub masks: Vec<PathBuf>,
     /// Dataset mode: skip ground truths whose visible fraction is below this.
@@ -69,7 +70,7 @@ pub fn load_config(path: Option<&Path>) -> anyhow::Result<Config> {
 pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
     let config = load_config(args.config.as_deref())?;
     let output = match &args.dataset {
-        Some(root) => run_dataset(args, root, config)?,
+        Some(root) => estimate_dataset(args, root, config)?,
         None => run_single(args, config)?,
     };
     for f in &output.failures {
@@ -99,10 +100,12 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn run_dataset(args: &EstimateArgs, root: &Path, config: Config) -> anyhow::Result<RunOutput> {
-    if args.masks.len() != 1 || args.masks[0].as_os_str() != "gt" {
-        bail!("dataset mode supports --masks gt (the dataset's mask_visib)");
-    }
+fn estimate_dataset(args: &EstimateArgs, root: &Path, config: Config) -> anyhow::Result<RunOutput> {
+    let masks = match MaskSource::from_paths(&args.masks)? {
+        MaskSource::GroundTruth => DatasetMasks::GroundTruth,
+        MaskSource::Detect => DatasetMasks::Detect,
+        _ => bail!("dataset mode takes --masks gt (the dataset's mask_visib) or --masks detect"),
+    };
     if args.rgb.is_some() || args.depth.is_some() || args.camera.is_some() {
         bail!("--rgb/--depth/--camera are for single-frame mode; drop --dataset or them");
     }
@@ -116,10 +119,11 @@ fn run_dataset(args: &EstimateArgs, root: &Path, config: Config) -> anyhow::Resu
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let opts = DatasetRunOptions {
+        masks,
         min_visib: args.min_visib,
         config,
     };
-    let out = run_dataset_gt_masks(&ds, &opts, &|| bar.inc(1));
+    let out = run_dataset(&ds, &opts, &|| bar.inc(1));
     bar.finish_and_clear();
     Ok(out)
 }
@@ -130,7 +134,15 @@ fn run_single(args: &EstimateArgs, config: Config) -> anyhow::Result<RunOutput> 
     };
     let frame = anybox::io::read_frame(args.rgb.as_deref(), depth, camera)?;
     let source = MaskSource::from_paths(&args.masks)?;
-    let masks = load_masks(&source, frame.depth.width, frame.depth.height)?;
+    let masks = match source {
+        MaskSource::Detect => detect_masks(
+            frame.rgb.as_ref(),
+            &frame.depth,
+            &frame.intrinsics,
+            &config.detect,
+        )?,
+        _ => load_masks(&source, frame.depth.width, frame.depth.height)?,
+    };
     let out = run_frame(&frame.depth, &frame.intrinsics, &masks, &config);
     if let Some(path) = &args.overlay {
         let mut img = match &frame.rgb {

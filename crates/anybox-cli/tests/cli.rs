@@ -332,3 +332,48 @@ fn synth_then_eval_ground_truth_scores_one() {
         assert!((v.as_f64().unwrap() - 1.0).abs() < 1e-9, "iou_ap {k} = {v}");
     }
 }
+
+#[test]
+fn detect_masks_in_dataset_mode_and_clear_error_without_depth() {
+    let Some(root) = ycbv() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let res = dir.path().join("det.json");
+    let o = anybox(&[
+        "estimate",
+        "--dataset",
+        root.to_str().unwrap(),
+        "--masks",
+        "detect",
+        "--out",
+        res.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&res).unwrap()).unwrap();
+    let ests = v["estimates"].as_array().unwrap();
+    assert!(!ests.is_empty(), "the detector finds boxes on ycbv");
+    assert!(ests.iter().all(|e| e["gt_index"].is_null()));
+    // A frame with no valid depth: the detector reports it, the run does not crash.
+    let cam = dir.path().join("camera.json");
+    std::fs::write(
+        &cam,
+        r#"{"cam_K": [500, 0, 32, 0, 500, 24, 0, 0, 1], "depth_scale": 1.0}"#,
+    )
+    .unwrap();
+    let depth = dir.path().join("zero.png");
+    image::ImageBuffer::<image::Luma<u16>, _>::new(64, 48)
+        .save(&depth)
+        .unwrap();
+    let out = dir.path().join("o.json");
+    let o = anybox(&[
+        "estimate",
+        "--depth",
+        depth.to_str().unwrap(),
+        "--camera",
+        cam.to_str().unwrap(),
+        "--masks",
+        "detect",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_clean_failure(&o, "no valid pixel");
+}

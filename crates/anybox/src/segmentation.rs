@@ -5,6 +5,8 @@
 //!
 //! The paper runs SAM with DINOv2 template matching (SAM-6D's ISM). No network weights can be
 //! downloaded here, so anybox takes masks from the caller, in any of these formats:
+//! - **the built-in detector** (`detect`, [`crate::detect`]): zero-shot box segmentation from
+//!   depth, normals and colour, scored by box-likeness;
 //! - **ground truth** of a BOP dataset (`mask_visib/IM_GT.png`), used by dataset mode;
 //! - **instance PNGs**: one binary PNG per instance (any non-zero pixel is inside), given as
 //!   files or as a folder (sorted by file name);
@@ -27,6 +29,12 @@ pub enum SegmentationError {
     /// No mask source was given.
     #[error("no masks given: pass instance PNGs, a folder, a label image or a COCO-RLE JSON")]
     NoMasks,
+    /// The built-in detector could not process the frame.
+    #[error("box detection failed: {0}")]
+    Detect(#[from] crate::detect::DetectError),
+    /// [`MaskSource::Detect`] needs the frame: call [`detect_masks`].
+    #[error("detection needs the frame; call detect_masks")]
+    DetectNeedsFrame,
     /// `gt` was asked for outside dataset mode.
     #[error("ground-truth masks (`gt`) exist only in dataset mode (--dataset)")]
     GroundTruthOutsideDataset,
@@ -37,6 +45,9 @@ pub enum SegmentationError {
 pub enum MaskSource {
     /// The dataset's own `mask_visib` ground truth (BOP dataset mode only).
     GroundTruth,
+    /// The built-in zero-shot box detector ([`crate::detect`]); its box-likeness scores carry
+    /// through.
+    Detect,
     /// Instance PNGs; a PNG holding several non-zero values is read as a label image.
     Pngs(Vec<PathBuf>),
     /// A folder of binary instance PNGs, read in file-name order.
@@ -51,6 +62,7 @@ impl MaskSource {
         match paths {
             [] => Err(SegmentationError::NoMasks),
             [p] if p.as_os_str() == "gt" => Ok(MaskSource::GroundTruth),
+            [p] if p.as_os_str() == "detect" => Ok(MaskSource::Detect),
             [p] if has_ext(p, "json") => Ok(MaskSource::CocoRle(p.clone())),
             [p] if p.is_dir() => Ok(MaskSource::Folder(p.clone())),
             many => Ok(MaskSource::Pngs(many.to_vec())),
@@ -90,6 +102,7 @@ pub fn load_masks(
     let mut out = Vec::new();
     match source {
         MaskSource::GroundTruth => return Err(SegmentationError::GroundTruthOutsideDataset),
+        MaskSource::Detect => return Err(SegmentationError::DetectNeedsFrame),
         MaskSource::Pngs(paths) => {
             for p in paths {
                 let mut labelled = anybox_io::masks::masks_from_label_image(p, size)?;
@@ -136,4 +149,23 @@ pub fn load_masks(
         }
     }
     Ok(out)
+}
+
+/// Runs the built-in zero-shot detector ([`crate::detect::detect_boxes`]) on one frame.
+pub fn detect_masks(
+    rgb: Option<&anybox_io::RgbImage>,
+    depth: &anybox_io::DepthMap,
+    intrinsics: &anybox_geom::Intrinsics,
+    cfg: &crate::detect::DetectConfig,
+) -> Result<Vec<InstanceMask>, SegmentationError> {
+    let dets = crate::detect::detect_boxes(rgb, depth, intrinsics, cfg)?;
+    Ok(dets
+        .into_iter()
+        .enumerate()
+        .map(|(i, d)| InstanceMask {
+            mask: d.mask,
+            score: d.score,
+            name: format!("detection {i} ({} faces)", d.n_faces),
+        })
+        .collect())
 }
