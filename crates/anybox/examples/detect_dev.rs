@@ -103,7 +103,9 @@ fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], tally: &mut Tally) {
                 }
             }
         }
-        let covering = (0..n).filter(|&k| gt_area[k] > 500 && inter_all[k] * 2 > gt_area[k]).count();
+        let covering = (0..n)
+            .filter(|&k| gt_area[k] > 500 && inter_all[k] * 2 > gt_area[k])
+            .count();
         if covering >= 2 {
             tally.merged += 1;
         }
@@ -167,7 +169,12 @@ fn dump(path: &Path, rgb: &image::RgbImage, dets: &[Detection], gts: &[(Mask, f6
         let c = if *v >= 0.5 { 255 } else { 128 };
         for vv in 1..m.height - 1 {
             for u in 1..m.width - 1 {
-                if m.get(u, vv) && !(m.get(u - 1, vv) && m.get(u + 1, vv) && m.get(u, vv - 1) && m.get(u, vv + 1)) {
+                if m.get(u, vv)
+                    && !(m.get(u - 1, vv)
+                        && m.get(u + 1, vv)
+                        && m.get(u, vv - 1)
+                        && m.get(u, vv + 1))
+                {
                     img.put_pixel(u, vv, image::Rgb([c, c, c]));
                 }
             }
@@ -250,7 +257,13 @@ fn main() {
             let ms = t0.elapsed().as_secs_f64() * 1e3;
             if std::env::var("VERBOSE").is_ok() {
                 for d in &dets {
-                    println!("  {name} s{s} det score {:.3} faces {} px {} bbox {:?}", d.score, d.n_faces, d.mask.count(), d.mask.bbox());
+                    println!(
+                        "  {name} s{s} det score {:.3} faces {} px {} bbox {:?}",
+                        d.score,
+                        d.n_faces,
+                        d.mask.count(),
+                        d.mask.bbox()
+                    );
                 }
             }
             tally.times_ms.push(ms);
@@ -265,10 +278,21 @@ fn main() {
                 if let Ok(c) = std::env::var("CROP") {
                     let c: Vec<u32> = c.split(',').filter_map(|x| x.parse().ok()).collect();
                     let sub = image::imageops::crop_imm(&v.rgb, c[0], c[1], c[2], c[3]).to_image();
-                    let big = image::imageops::resize(&sub, c[2] * 3, c[3] * 3, image::imageops::FilterType::Nearest);
+                    let big = image::imageops::resize(
+                        &sub,
+                        c[2] * 3,
+                        c[3] * 3,
+                        image::imageops::FilterType::Nearest,
+                    );
                     let _ = big.save(d.join(format!("{name}_{s}_crop.png")));
                 }
-                dump_labels(&d.join(format!("{name}_{s}")), &v.rgb, &v.depth, &v.intrinsics, &cfg);
+                dump_labels(
+                    &d.join(format!("{name}_{s}")),
+                    &v.rgb,
+                    &v.depth,
+                    &v.intrinsics,
+                    &cfg,
+                );
                 dump(&d.join(format!("{name}_{s}.png")), &v.rgb, &dets, &gts);
             }
         }
@@ -281,15 +305,20 @@ fn main() {
         for (vi, view) in ds.views.iter().enumerate() {
             let f = view.load_frame().expect("frame");
             let t0 = Instant::now();
-            let dets =
-                detect_boxes(f.rgb.as_ref(), &f.depth, &f.intrinsics, &cfg).expect("detect");
+            let dets = detect_boxes(f.rgb.as_ref(), &f.depth, &f.intrinsics, &cfg).expect("detect");
             tally.times_ms.push(t0.elapsed().as_secs_f64() * 1e3);
             let gts: Vec<(Mask, f64)> = (0..view.gts.len())
                 .map(|i| (view.load_mask_visib(i).expect("mask"), 1.0))
                 .collect();
             score_frame(&dets, &gts, &mut tally);
             if let (Some(d), Some(rgb)) = (&dump_dir, &f.rgb) {
-                dump_labels(&d.join(format!("ycbv_{vi}")), rgb, &f.depth, &f.intrinsics, &cfg);
+                dump_labels(
+                    &d.join(format!("ycbv_{vi}")),
+                    rgb,
+                    &f.depth,
+                    &f.intrinsics,
+                    &cfg,
+                );
                 dump(&d.join(format!("ycbv_{vi}.png")), rgb, &dets, &gts);
             }
         }

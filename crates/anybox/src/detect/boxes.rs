@@ -15,13 +15,13 @@
 use std::collections::BTreeMap;
 
 use anybox_geom::projection::{
-    convex_hull_2d, ray_box_intersection, rasterize_convex_polygon, silhouette_hull_px,
+    convex_hull_2d, rasterize_convex_polygon, ray_box_intersection, silhouette_hull_px,
 };
 use anybox_geom::OrientedBox;
 use nalgebra::{Matrix3, Point2, Point3, Rotation3, Vector3};
 
 use super::grid::Grid;
-use super::regions::{fit_regions, plane_tol, Region, NONE};
+use super::regions::{plane_tol, Region, NONE};
 use super::DetectConfig;
 
 /// A scored candidate on the grid.
@@ -63,8 +63,7 @@ pub(crate) fn support_mask(
     // (surface index or None for a RANSAC plane, plane, bounds-the-scene, things-stand-on-it)
     let mut cands: Vec<(Option<usize>, Region, bool, bool)> = Vec::new();
     for (r, reg) in surfaces.iter().enumerate() {
-        if reg.area_mm2 < cfg.support_min_area_mm2 || reg.inlier_frac < cfg.min_plane_inlier_frac
-        {
+        if reg.area_mm2 < cfg.support_min_area_mm2 || reg.inlier_frac < cfg.min_plane_inlier_frac {
             continue;
         }
         let (strong, standing) = support_tests(g, reg, &members[r], cfg);
@@ -198,7 +197,10 @@ fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) ->
 /// Dominant planes by RANSAC over all cells (deterministic), with their support tests: finds
 /// floors and tables that sensor noise or texture cut into many small surfaces.
 fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
-    let mut pool: Vec<usize> = (0..g.z.len()).filter(|&i| g.z[i] > 0.0).step_by(3).collect();
+    let mut pool: Vec<usize> = (0..g.z.len())
+        .filter(|&i| g.z[i] > 0.0)
+        .step_by(3)
+        .collect();
     let mut out = Vec::new();
     let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
     let mut next = |n: usize| -> usize {
@@ -322,42 +324,6 @@ fn inside_convex(poly: &[Point2<f64>], p: &Point2<f64>) -> bool {
     true
 }
 
-/// Removes support cells from a labelling: regions mostly on a support go entirely, others
-/// lose their support cells. Returns the refitted regions.
-pub(crate) fn strip_support(
-    g: &Grid,
-    labels: &mut [u32],
-    n_regions: usize,
-    on_support: &[bool],
-    cfg: &DetectConfig,
-) -> Vec<Region> {
-    let mut total = vec![0usize; n_regions];
-    let mut sup = vec![0usize; n_regions];
-    for (i, &l) in labels.iter().enumerate() {
-        if l != NONE {
-            total[l as usize] += 1;
-            if on_support[i] {
-                sup[l as usize] += 1;
-            }
-        }
-    }
-    let mut remap = vec![NONE; n_regions];
-    let mut next = 0u32;
-    for l in 0..n_regions {
-        let keep = total[l] - sup[l];
-        if 2 * sup[l] < total[l] && keep >= cfg.min_region_cells as usize {
-            remap[l] = next;
-            next += 1;
-        }
-    }
-    for (i, l) in labels.iter_mut().enumerate() {
-        if *l != NONE {
-            *l = if on_support[i] { NONE } else { remap[*l as usize] };
-        }
-    }
-    fit_regions(g, labels, next as usize, cfg)
-}
-
 /// Whether a region can be a box face: big enough, planar, not curved.
 fn is_face(r: &Region, cfg: &DetectConfig) -> bool {
     r.n >= cfg.min_face_cells as usize
@@ -389,8 +355,6 @@ pub(crate) struct Raw {
     pub n_faces: u8,
     /// Fitted cuboid (camera frame, mm; a single face gets a 1 mm thickness).
     pub bx: OrientedBox,
-    /// Mean colour of the largest face.
-    pub colour: [f64; 3],
     /// Plane normal of the largest face.
     pub normal: Vector3<f64>,
 }
@@ -484,7 +448,10 @@ pub(crate) fn group_candidates(
     let perp = |a: usize, b: usize| regions[a].normal.dot(&regions[b].normal).abs() <= sin_perp;
     // Extent of a face's cells along a direction (robust).
     let extent_along = |r: usize, e: &Vector3<f64>| -> f64 {
-        let mut vals: Vec<f64> = cells[r].iter().map(|&i| v3(&g.p[i as usize]).dot(e)).collect();
+        let mut vals: Vec<f64> = cells[r]
+            .iter()
+            .map(|&i| v3(&g.p[i as usize]).dot(e))
+            .collect();
         let (lo, hi) = robust_range(&mut vals, cfg.extent_quantile);
         hi - lo
     };
@@ -575,7 +542,12 @@ pub(crate) fn group_candidates(
 
 /// Final masks: unlabelled cells inside each cuboid's silhouette that agree with it (edge
 /// bands, missing depth) are added, best candidates first; `claimed` marks cells already taken.
-pub(crate) fn fill(g: &Grid, raws: Vec<Raw>, claimed: &mut [bool], cfg: &DetectConfig) -> Vec<Candidate> {
+pub(crate) fn fill(
+    g: &Grid,
+    raws: Vec<Raw>,
+    claimed: &mut [bool],
+    cfg: &DetectConfig,
+) -> Vec<Candidate> {
     let (w, h) = (g.w, g.h);
     let mut result = Vec::with_capacity(raws.len());
     for raw in raws {
@@ -709,7 +681,10 @@ fn score_group(
     let dbg = std::env::var("DETECT_DEBUG").is_ok();
     if max_dim > cfg.max_box_extent_mm || min_dim < cfg.min_box_extent_mm {
         if dbg && all.len() > 300 {
-            eprintln!("group {mem:?} n {} rejected size {max_dim:.0} {min_dim:.0}", all.len());
+            eprintln!(
+                "group {mem:?} n {} rejected size {max_dim:.0} {min_dim:.0}",
+                all.len()
+            );
         }
         return None;
     }
@@ -797,7 +772,6 @@ fn score_group(
         score,
         n_faces: mem.len() as u8,
         bx,
-        colour: regions[big].colour,
         normal: regions[big].normal,
     })
 }

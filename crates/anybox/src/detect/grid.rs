@@ -238,8 +238,9 @@ fn sub(a: &[f32; 3], b: &[f32; 3]) -> [f32; 3] {
 fn normals(zs: &[f32], ps: &[[f32; 3]], w: usize, h: usize, cfg: &DetectConfig) -> Vec<[f32; 3]> {
     let r = cfg.normal_radius_cells.max(1) as usize;
     let mut out = vec![[0f32; 3]; w * h];
-    let same =
-        |i: usize, j: usize| -> bool { zs[j] > 0.0 && (zs[j] - zs[i]).abs() <= jump_tol(cfg, zs[i]) };
+    let same = |i: usize, j: usize| -> bool {
+        zs[j] > 0.0 && (zs[j] - zs[i]).abs() <= jump_tol(cfg, zs[i])
+    };
     for v in 0..h {
         for u in 0..w {
             let i = v * w + u;

@@ -64,7 +64,7 @@ pub struct DetectConfig {
     pub tape_max_width_mm: f64,
     /// Bridged halves differ in mean colour by at most this, RGB levels. Default 25.
     pub tape_colour_delta: f64,
-    /// Bridged halves overlap along the strip by at least this fraction of the shorter.
+    /// Bridged halves overlap along the strip by at least this fraction of the longer.
     /// Default 0.7.
     pub tape_overlap: f64,
     /// Regions with fewer cells are dropped (noise, edge bands). Default 20.
@@ -389,9 +389,8 @@ fn validate(
         }
     }
     let k = intrinsics;
-    if !(k.fx.is_finite() && k.fy.is_finite() && k.fx > 0.0 && k.fy > 0.0)
-        || !(k.cx.is_finite() && k.cy.is_finite())
-    {
+    let focal_ok = k.fx.is_finite() && k.fy.is_finite() && k.fx > 0.0 && k.fy > 0.0;
+    if !(focal_ok && k.cx.is_finite() && k.cy.is_finite()) {
         return Err(DetectError::BadIntrinsics {
             fx: k.fx,
             fy: k.fy,
@@ -457,7 +456,9 @@ fn select(
         let big: Vec<usize> = inside[k]
             .iter()
             .copied()
-            .filter(|&c| col[c].cells.len() as f64 >= cfg.split_min_fraction * gc.cells.len() as f64)
+            .filter(|&c| {
+                col[c].cells.len() as f64 >= cfg.split_min_fraction * gc.cells.len() as f64
+            })
             .collect();
         if big.len() < 2 {
             continue;
@@ -480,7 +481,8 @@ fn select(
                         continue;
                     }
                     let o = col_owner[(vv * w + uu) as usize];
-                    if o != u32::MAX && big.contains(&(o as usize)) && !near.contains(&(o as usize)) {
+                    if o != u32::MAX && big.contains(&(o as usize)) && !near.contains(&(o as usize))
+                    {
                         near.push(o as usize);
                     }
                 }
@@ -493,7 +495,10 @@ fn select(
                 }
             }
         }
-        if between.values().any(|&n| n >= cfg.split_min_seam_cells as usize) {
+        if between
+            .values()
+            .any(|&n| n >= cfg.split_min_seam_cells as usize)
+        {
             out_geo[k] = false;
             for &c in &inside[k] {
                 take_col[c] = true;

@@ -117,9 +117,7 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
     let cos_n = (cfg.normal_cut_deg.to_radians().cos()) as f32;
     let col2 = (cfg.colour_cut * cfg.colour_cut) as f32;
     let same = |i: usize, j: usize| -> bool {
-        g.z[i] > 0.0
-            && g.z[j] > 0.0
-            && (g.z[i] - g.z[j]).abs() <= jump_tol(cfg, g.z[i].min(g.z[j]))
+        g.z[i] > 0.0 && g.z[j] > 0.0 && (g.z[i] - g.z[j]).abs() <= jump_tol(cfg, g.z[i].min(g.z[j]))
     };
     // The pair (i, j = i + one step) along one axis; `back` / `fwd` walk one cell outwards.
     let judge = |i: usize,
@@ -210,7 +208,11 @@ pub(crate) fn segment(
     cfg: &DetectConfig,
 ) -> (Vec<u32>, Vec<Region>) {
     let (w, h) = (g.w, g.h);
-    let bits = if geometric_only { &joins.geo } else { &joins.all };
+    let bits = if geometric_only {
+        &joins.geo
+    } else {
+        &joins.all
+    };
     let out = |i: usize| exclude.is_some_and(|e| e[i]);
     let mut dsu = Dsu::new(w * h);
     for v in 0..h {
@@ -357,7 +359,10 @@ pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig
         let m = cnt[l].max(1) as f64;
         reg.inlier_frac = inl[l] as f64 / m;
         reg.normal_spread_deg = if nknown[l] > 0 {
-            (ndot[l] / nknown[l] as f64).clamp(-1.0, 1.0).acos().to_degrees()
+            (ndot[l] / nknown[l] as f64)
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees()
         } else {
             90.0
         };
@@ -446,7 +451,12 @@ pub(crate) fn bridge_tape(
     let cos_par = cfg.perpendicular_tol_deg.to_radians().cos();
     let coplanar = |a: &Region, b: &Region| -> bool {
         a.normal.dot(&b.normal) >= cos_par
-            && a.dist(&[b.centroid.x as f32, b.centroid.y as f32, b.centroid.z as f32]).abs()
+            && a.dist(&[
+                b.centroid.x as f32,
+                b.centroid.y as f32,
+                b.centroid.z as f32,
+            ])
+            .abs()
                 <= 3.0 * plane_tol(cfg, b.centroid.z)
     };
     let mut parent: Vec<usize> = (0..n).collect();
@@ -511,7 +521,9 @@ pub(crate) fn bridge_tape(
                 let (a0, a1) = range(a, &axis);
                 let (b0, b1) = range(b, &axis);
                 let overlap = a1.min(b1) - a0.max(b0);
-                if overlap < cfg.tape_overlap * (a1 - a0).min(b1 - b0) {
+                // Relative to the longer: a half that already spans two cartons (no seam
+                // between them) does not bridge to one carton's other half.
+                if overlap < cfg.tape_overlap * (a1 - a0).max(b1 - b0) {
                     continue;
                 }
                 let (x0, x1) = (a0.max(b0), a1.min(b1));
