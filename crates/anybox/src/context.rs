@@ -28,6 +28,13 @@
 //! 4. **Fallback**: the smaller of the two observed extents (cartons are rarely deeper than both
 //!    their visible sides).
 //!
+//! 5. **Doubt** ([`doubt_factor`]): the reported score is multiplied by a factor per axis whose
+//!    extent was guessed (fallback 0.5, support or neighbour 0.8) or is only a lower bound (the
+//!    mask ends at an occluder or the image border, 0.8), so score-ranked AP sees measured boxes
+//!    first. On the synthetic bench (seeds 2026 and 7) this raised AP@0.5 / AP@0.9 of the
+//!    fully observed boxes from 0.831 / 0.509 to 0.872 / 0.600 and from 0.856 / 0.582 to
+//!    0.864 / 0.637 (sizes unchanged).
+//!
 //! All extents are clamped to `[min_hidden_mm, max_hidden_mm]`. Deterministic: no randomness.
 
 use anybox_geom::{Intrinsics, OrientedBox};
@@ -78,6 +85,18 @@ pub struct ContextConfig {
     pub fallback_ratio: f64,
     /// Visible faces within this distance along their common normal form one layer, mm.
     pub layer_tol_mm: f64,
+    /// Lower the reported score where the size is in doubt (see [`doubt_factor`]), so that
+    /// score-ranked AP puts measured boxes before guessed ones.
+    pub score_doubt: bool,
+    /// Score factor per axis whose extent is the fallback guess (rule 4).
+    pub doubt_fallback: f64,
+    /// Score factor per axis whose extent came from a support plane (rule 2).
+    pub doubt_support: f64,
+    /// Score factor per axis whose extent came from a neighbour (rule 3).
+    pub doubt_neighbour: f64,
+    /// Score factor per observed axis whose mask extent ends at an occluder or the image border
+    /// (the extent is only a lower bound).
+    pub doubt_lower_bound: f64,
 }
 
 impl Default for ContextConfig {
@@ -100,6 +119,11 @@ impl Default for ContextConfig {
             support_ratio: [0.4, 2.0],
             fallback_ratio: 1.0,
             layer_tol_mm: 20.0,
+            score_doubt: true,
+            doubt_fallback: 0.5,
+            doubt_support: 0.8,
+            doubt_neighbour: 0.8,
+            doubt_lower_bound: 0.8,
         }
     }
 }
@@ -116,6 +140,34 @@ pub enum HiddenSource {
     Neighbour,
     /// The fallback rule.
     Fallback,
+}
+
+/// Score factor for a size whose axes came from `sources`, with `lower_bound[a]` set for
+/// observed axes whose extent is only a lower bound: the product of the per-axis factors of
+/// [`ContextConfig`] (1 when [`ContextConfig::score_doubt`] is off).
+pub fn doubt_factor(
+    sources: &[HiddenSource; 3],
+    lower_bound: &[bool; 3],
+    cfg: &ContextConfig,
+) -> f64 {
+    if !cfg.score_doubt {
+        return 1.0;
+    }
+    let mut f = 1.0;
+    for a in 0..3 {
+        f *= match sources[a] {
+            HiddenSource::Observed if lower_bound[a] => cfg.doubt_lower_bound,
+            HiddenSource::Observed => 1.0,
+            HiddenSource::Support => cfg.doubt_support,
+            HiddenSource::Neighbour => cfg.doubt_neighbour,
+            HiddenSource::Fallback => cfg.doubt_fallback,
+        };
+    }
+    if f.is_finite() {
+        f.clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
 }
 
 /// Points per face normal axis, and each point's face axis (`None` = unassigned).
@@ -222,6 +274,10 @@ pub struct Support {
     pub n_points: usize,
     /// Angle between the plane normal and the hidden axis, deg.
     pub tilt_deg: f64,
+    /// Share of the valid ring samples lying in the visible face's own plane (within
+    /// [`ContextConfig::min_hidden_mm`]): high where the box sits among flush neighbours (a layer
+    /// of a pallet), whose space behind is full of boxes rather than open to the support.
+    pub coplanar_fraction: f64,
 }
 
 /// Searches the support plane behind the visible face for hidden axis `a` (rule 2).
@@ -252,6 +308,7 @@ pub fn find_support(
         .max(1.0) as usize;
     let mut hist = vec![0usize; nbins];
     let mut ring: Vec<(f64, Point3<f64>)> = Vec::new();
+    let (mut n_valid, mut n_coplanar) = (0usize, 0usize);
     for v in (va..=vb).step_by(stride) {
         for uu in (ua..=ub).step_by(stride) {
             let (pu, pv) = (uu as u32, v as u32);
@@ -261,6 +318,10 @@ pub fn find_support(
             let Some(z) = depth.get(pu, pv) else { continue };
             let p = k.back_project(f64::from(pu), f64::from(pv), f64::from(z));
             let t = p.coords.dot(&u) - face;
+            n_valid += 1;
+            if t.abs() < cfg.min_hidden_mm {
+                n_coplanar += 1;
+            }
             if t < cfg.min_hidden_mm || t >= cfg.max_hidden_mm {
                 continue;
             }
@@ -305,6 +366,7 @@ pub fn find_support(
                         offset_mm: off,
                         n_points: sel.len(),
                         tilt_deg: c.clamp(-1.0, 1.0).acos().to_degrees(),
+                        coplanar_fraction: n_coplanar as f64 / n_valid.max(1) as f64,
                     });
                     if !cfg.support_largest {
                         break;
@@ -488,6 +550,29 @@ mod tests {
         // Camera looking straight down the z axis; box z axis along the view ray.
         let c = Vector3::new(x, 0.0, top_z + size.z / 2.0);
         OrientedBox::new(Rotation3::identity(), c, size).unwrap()
+    }
+
+    #[test]
+    fn doubt_factor_lowers_guessed_and_bounded_sizes() {
+        use HiddenSource::*;
+        let c = ContextConfig::default();
+        let none = [false; 3];
+        assert_eq!(doubt_factor(&[Observed; 3], &none, &c), 1.0);
+        let fb = doubt_factor(&[Observed, Observed, Fallback], &none, &c);
+        let sp = doubt_factor(&[Observed, Observed, Support], &none, &c);
+        assert!(fb < sp && sp < 1.0, "{fb} {sp}");
+        // A lower bound counts on observed axes only (a guessed axis is already doubted once).
+        let lb = doubt_factor(&[Observed; 3], &[true, false, false], &c);
+        assert!(lb < 1.0);
+        assert_eq!(
+            doubt_factor(&[Observed, Observed, Fallback], &[false, false, true], &c),
+            fb
+        );
+        let off = ContextConfig {
+            score_doubt: false,
+            ..ContextConfig::default()
+        };
+        assert_eq!(doubt_factor(&[Fallback; 3], &[true; 3], &off), 1.0);
     }
 
     #[test]

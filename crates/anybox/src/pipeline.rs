@@ -16,19 +16,24 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use crate::config::Config;
-use crate::context::{infer_hidden, share_layer_heights, ContextInputs, HiddenSource, LayerMember};
+use crate::context::{
+    doubt_factor, infer_hidden, share_layer_heights, ContextInputs, HiddenSource, LayerMember,
+};
 use crate::error::EstimateError;
 use crate::observation::{observe, Observation};
 use crate::pose::estimate_pose;
-use crate::scale::{observed_faces, scale_search, PoseSample, ScaleInputs, ScaleMode};
-use crate::silhouette::mask_pixels;
+use crate::scale::{
+    observed_extents_checked, observed_faces, scale_search, PoseSample, ScaleInputs, ScaleMode,
+};
+use crate::silhouette::{axis_directions, mask_pixels};
 
 /// One estimated box.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BoxEstimate {
     /// The box in the camera frame, mm, with canonical axes (SPEC §2).
     pub pose: OrientedBox,
-    /// Confidence, 0..1 (the pose estimator's score of the final estimate).
+    /// Confidence, 0..1: the pose estimator's score of the final estimate, lowered where the
+    /// size is in doubt ([`crate::context::doubt_factor`], with context on).
     pub score: f64,
     /// Per (canonical) axis: was its extent observed (true) or inferred from context (false).
     pub observed_axes: [bool; 3],
@@ -53,6 +58,8 @@ struct Stage {
     iterations: u32,
     stopped_early: bool,
     pose_calls: u32,
+    /// Score factor for doubts about the size ([`crate::context::doubt_factor`]).
+    doubt: f64,
 }
 
 fn sample_of(
@@ -98,7 +105,7 @@ fn stage_one(
     let mut est =
         |s: &Vector3<f64>, prior: Option<&OrientedBox>| sample_of(&obs, depth, k, s, prior, cfg);
     let mut fill =
-        |p: &OrientedBox, observed: [bool; 3]| infer_hidden(p, observed, &ctx_in, &cfg.context).0;
+        |p: &OrientedBox, observed: [bool; 3]| infer_hidden(p, observed, &ctx_in, &cfg.context);
     let hidden: Option<&mut crate::scale::HiddenFill<'_>> = if cfg.context.enabled {
         Some(&mut fill)
     } else {
@@ -130,6 +137,25 @@ fn stage_one(
             depth_penalty = s.depth_penalty;
         }
     }
+    // Doubts about the size: guessed axes (context) and observed extents that are only lower
+    // bounds (the mask ends at an occluder or the image border).
+    let doubt = if cfg.context.enabled && size_is_free {
+        let mut guessed = sources;
+        for a in 0..3 {
+            if guessed[a] == HiddenSource::Observed {
+                guessed[a] = out.enlarged_from[a];
+            }
+        }
+        let mut lower = [false; 3];
+        if let Some(dirs) = axis_directions(&pose, k) {
+            let mut scratch = Vec::new();
+            lower =
+                observed_extents_checked(&inputs, &dirs, &cfg.scale, &mut scratch).lower_bound_only;
+        }
+        doubt_factor(&guessed, &lower, &cfg.context)
+    } else {
+        1.0
+    };
     Ok(Stage {
         obs,
         pose,
@@ -140,6 +166,7 @@ fn stage_one(
         iterations: out.iterations,
         stopped_early: out.stopped_early,
         pose_calls,
+        doubt,
     })
 }
 
@@ -159,7 +186,7 @@ fn finish(st: &Stage) -> BoxEstimate {
     }
     BoxEstimate {
         pose: canon,
-        score: st.score,
+        score: st.score * st.doubt,
         observed_axes: flags,
         iterations: st.iterations,
         stopped_early: st.stopped_early,
@@ -184,6 +211,37 @@ pub fn estimate_box(
     cfg: &Config,
 ) -> Result<BoxEstimate, EstimateError> {
     stage_one(depth, intrinsics, mask, cfg).map(|s| finish(&s))
+}
+
+/// What one box's estimate went through (diagnostics): per canonical axis, where its extent came
+/// from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoxTrace {
+    /// Source of each (canonical) axis' extent.
+    pub sources: [HiddenSource; 3],
+}
+
+/// [`estimate_box`] with a [`BoxTrace`] (for the size diagnostics; same result).
+pub fn estimate_box_traced(
+    depth: &DepthMap,
+    intrinsics: &Intrinsics,
+    mask: &Mask,
+    cfg: &Config,
+) -> Result<(BoxEstimate, BoxTrace), EstimateError> {
+    let st = stage_one(depth, intrinsics, mask, cfg)?;
+    let e = finish(&st);
+    let mut sources = [HiddenSource::Observed; 3];
+    for (i, s) in sources.iter_mut().enumerate() {
+        let ci = e.pose.axis(i);
+        let mut best = 0;
+        for j in 1..3 {
+            if st.pose.axis(j).dot(&ci).abs() > st.pose.axis(best).dot(&ci).abs() {
+                best = j;
+            }
+        }
+        *s = st.sources[best];
+    }
+    Ok((e, BoxTrace { sources }))
 }
 
 /// Estimates every masked box of a frame: per-instance stages in parallel, then neighbours in
@@ -231,9 +289,13 @@ pub fn estimate_frame(
                 st.score = s.score;
                 st.depth_penalty = s.depth_penalty;
                 st.pose_calls += 1;
+                let c = &cfg.context;
                 for a in 0..3 {
                     if st.sources[a] == HiddenSource::Fallback {
                         st.sources[a] = HiddenSource::Neighbour;
+                        if c.score_doubt && c.doubt_fallback > 0.0 {
+                            st.doubt = (st.doubt * c.doubt_neighbour / c.doubt_fallback).min(1.0);
+                        }
                     }
                 }
             }

@@ -23,7 +23,7 @@ use anybox_io::DepthMap;
 use nalgebra::{Matrix3, Point3, Rotation3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::context::{face_point_counts, observed_axes_from_counts, ContextConfig};
+use crate::context::{face_point_counts, observed_axes_from_counts, ContextConfig, HiddenSource};
 use crate::silhouette::{
     axis_directions, extents_of_local_points, mask_span, project_local_points, raster_extents,
     rendered_extents, rendered_raster_extents, trim_count, AxisDirections, Extents,
@@ -232,8 +232,9 @@ pub struct ScaleInputs<'a> {
 }
 
 /// Fills the hidden (unobserved) axes of a size: given the current pose and which axes are
-/// observed, returns the size to use (observed axes unchanged).
-pub type HiddenFill<'f> = dyn FnMut(&OrientedBox, [bool; 3]) -> Vector3<f64> + 'f;
+/// observed, returns the size to use (observed axes unchanged) and where each axis came from.
+pub type HiddenFill<'f> =
+    dyn FnMut(&OrientedBox, [bool; 3]) -> (Vector3<f64>, [HiddenSource; 3]) + 'f;
 
 /// Result of the scale search.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -254,6 +255,10 @@ pub struct ScaleOutcome {
     pub converged: bool,
     /// Axes observed by the points (per the final pose's axes); `[true; 3]` when not assessed.
     pub observed_axes: [bool; 3],
+    /// Observed axes whose extent scene context enlarged (PointFit's weak or occlusion-bounded
+    /// axes, [`ScaleConfig::blocked_axes_from_context`]): where the value came from;
+    /// [`HiddenSource::Observed`] elsewhere.
+    pub enlarged_from: [HiddenSource; 3],
 }
 
 /// Observed extents with per-axis "only a lower bound" flags.
@@ -556,6 +561,7 @@ fn fixed<P: PoseEstimator>(est: &mut P, size: &Vector3<f64>) -> Result<ScaleOutc
         stopped_early: false,
         converged: true,
         observed_axes: [true; 3],
+        enlarged_from: [HiddenSource::Observed; 3],
     })
 }
 
@@ -671,6 +677,7 @@ fn binary_search<P: PoseEstimator>(
         stopped_early,
         converged,
         observed_axes: [true; 3],
+        enlarged_from: [HiddenSource::Observed; 3],
     })
 }
 
@@ -931,6 +938,7 @@ fn point_fit<P: PoseEstimator>(
     let mut converged = false;
     let mut observed = [true; 3];
     let mut faces = [true; 3];
+    let mut enlarged_from = [HiddenSource::Observed; 3];
     for _ in 0..cfg.pointfit_iters.max(1) {
         iterations += 1;
         let pose = sample.pose;
@@ -943,6 +951,7 @@ fn point_fit<P: PoseEstimator>(
         // Axes measured only on faces holding a small share of the mask (grazing or mostly
         // hidden sides): their extent is at best a lower bound.
         let mut weak = [false; 3];
+        enlarged_from = [HiddenSource::Observed; 3];
         let ext = if cfg.pointfit_mask_rays {
             let fit = mask_ray_fit(
                 &pose,
@@ -994,7 +1003,7 @@ fn point_fit<P: PoseEstimator>(
         posed.size_mm = clamp_size(&new, cfg);
         if let Some(h) = hidden.as_deref_mut() {
             if observed.iter().any(|o| !o) {
-                new = h(&posed, observed);
+                new = h(&posed, observed).0;
             }
             // Weakly observed axes: context may only enlarge them.
             for a in 0..3 {
@@ -1003,8 +1012,11 @@ fn point_fit<P: PoseEstimator>(
                     only[a] = false;
                     let mut p2 = posed;
                     p2.size_mm = clamp_size(&new, cfg);
-                    let filled = h(&p2, only);
-                    new[a] = new[a].max(filled[a]);
+                    let (filled, src) = h(&p2, only);
+                    if filled[a] > new[a] {
+                        new[a] = filled[a];
+                        enlarged_from[a] = src[a];
+                    }
                 }
             }
         }
@@ -1147,6 +1159,7 @@ fn point_fit<P: PoseEstimator>(
         stopped_early: false,
         converged,
         observed_axes: observed,
+        enlarged_from,
     })
 }
 
