@@ -80,7 +80,7 @@ pub struct DetectConfig {
     /// (curved surfaces deviate more). Default 25.
     pub max_normal_spread_deg: f64,
     /// A face's two halves (split across either in-plane principal axis) have plane normals
-    /// within this angle, degrees: spheres and cylinders bend, planes do not. Default 6.
+    /// within this angle, degrees: spheres and cylinders bend, planes do not. Default 8.
     pub max_bend_deg: f64,
     /// Planar regions at least this large are support candidates (floor, table top, shelf board,
     /// wall), mm². Default 250 000 (0.25 m²).
@@ -184,7 +184,7 @@ impl Default for DetectConfig {
             plane_tol_quad_mm: 6.0,
             min_plane_inlier_frac: 0.8,
             max_normal_spread_deg: 25.0,
-            max_bend_deg: 6.0,
+            max_bend_deg: 8.0,
             support_min_area_mm2: 250_000.0,
             support_always_area_mm2: 2_000_000.0,
             support_window_mm: 600.0,
