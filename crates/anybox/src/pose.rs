@@ -100,6 +100,21 @@ pub struct PoseConfig {
     /// The depth-cell region is the mask's bounding box grown by this fraction of its larger
     /// side on every side. Default 1.0.
     pub region_margin: f64,
+    /// Candidates are ranked by `score · plain_iou^weight`, where `plain_iou` is the silhouette
+    /// IoU without the occlusion credit ([`silhouette_ious`]): of two poses that explain the
+    /// observation equally well, the one hiding less of the box behind occluders wins (an
+    /// occluded box's hidden part is otherwise unconstrained, e.g. two sides swapped). The
+    /// reported score is unchanged. Default 0 = off (0.25–1 measured within ±1 box of off with
+    /// the oracle size on two seeds).
+    pub hidden_weight: f64,
+    /// The reported confidence is multiplied by `plain_iou^score_hidden_weight` (see
+    /// `hidden_weight`): a box mostly hidden behind occluders is less certain. Default 0 = off
+    /// (measured: lower Spearman(score, IoU) on the synthetic bench).
+    pub score_hidden_weight: f64,
+    /// The reported confidence is multiplied by `exp(−w · max(0, rmse/σ̂ − 1))`, with `rmse` the
+    /// inlier residual of the refined pose and σ̂ the estimated depth noise. Default 0 = off
+    /// (measured: no better Spearman(score, IoU) on the synthetic bench).
+    pub score_rmse_weight: f64,
 }
 
 impl Default for PoseConfig {
@@ -119,6 +134,9 @@ impl Default for PoseConfig {
             prior_switch_margin: 0.1,
             size_agreement_weight: 1.0,
             region_margin: 1.0,
+            hidden_weight: 0.0,
+            score_hidden_weight: 0.0,
+            score_rmse_weight: 0.0,
         }
     }
 }
@@ -348,15 +366,22 @@ impl<'a> ScoringContext<'a> {
 
 /// Occlusion-aware IoU between the convex hull of `pose`'s projected corners and `obs.mask`
 /// (0 when a corner is behind the camera): hull pixels outside the mask that are explained by a
-/// nearer occluder or by missing depth ([`Observation::explained_rows`]) are left out of the
+/// nearer occluder (or missing depth, when so configured; [`Observation::explained_rows`]) are left out of the
 /// union, so a partly occluded box is not pushed to shrink into its visible part. Scanline over
 /// the hull rows, counts from the row prefix sums (O(rows)).
 pub fn silhouette_iou(pose: &OrientedBox, obs: &Observation, k: &Intrinsics) -> f64 {
+    silhouette_ious(pose, obs, k).0
+}
+
+/// `(occlusion-aware IoU, plain IoU)` of the pose's silhouette with the mask: the first is
+/// [`silhouette_iou`]; the second counts every silhouette pixel outside the mask as
+/// disagreement (how much of the box is hidden behind occluders or missing depth).
+pub fn silhouette_ious(pose: &OrientedBox, obs: &Observation, k: &Intrinsics) -> (f64, f64) {
     let Some(hull) = anybox_geom::projection::silhouette_hull_px(pose, k) else {
-        return 0.0;
+        return (0.0, 0.0);
     };
     if hull.len() < 3 {
-        return 0.0;
+        return (0.0, 0.0);
     }
     let (w, h) = (obs.mask.width as i64, obs.mask.height as i64);
     let ymin = hull.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
@@ -397,12 +422,10 @@ pub fn silhouette_iou(pose: &OrientedBox, obs: &Observation, k: &Intrinsics) -> 
     }
     // Silhouette pixels outside the mask that an occluder or missing depth explains are not
     // disagreement: leave them out of the union.
-    let union = (obs.mask_rows.count as u64 + hull_n).saturating_sub(inter + explained);
-    if union == 0 {
-        0.0
-    } else {
-        inter as f64 / union as f64
-    }
+    let plain_union = (obs.mask_rows.count as u64 + hull_n).saturating_sub(inter);
+    let union = plain_union.saturating_sub(explained);
+    let ratio = |u: u64| if u == 0 { 0.0 } else { inter as f64 / u as f64 };
+    (ratio(union), ratio(plain_union))
 }
 
 /// Geodesic angle between two rotations, degrees (clamped, never NaN for finite input).
@@ -562,26 +585,39 @@ pub fn estimate_pose(
         };
         let refined = refine_pose(&start, &pts, &cfg.refine);
         let pose = refined.pose;
-        let iou = ctx.silhouette_iou(&pose);
+        let (iou, plain_iou) = silhouette_ious(&pose, obs, intrinsics);
         let pen = ctx.penalty(&pose, cfg);
         let mut score = refined.inlier_fraction * iou;
         if cfg.depth_filter.enabled {
             score *= 1.0 - pen;
         }
+        if cfg.score_hidden_weight > 0.0 {
+            score *= plain_iou.max(0.0).powf(cfg.score_hidden_weight);
+        }
+        if cfg.score_rmse_weight > 0.0 && fs.noise_mm > 0.0 {
+            let excess = (refined.inlier_rmse_mm / fs.noise_mm - 1.0).max(0.0);
+            score *= (-cfg.score_rmse_weight * excess).exp();
+        }
         if !score.is_finite() {
             continue;
         }
-        let rank_score = if prior.is_some() {
-            if near_prior(&pose) {
-                score
-            } else {
-                score * (1.0 - cfg.prior_switch_margin)
-            }
-        } else if cfg.size_agreement_weight > 0.0 {
-            score * size_agreement(obs, &pose, &cfg.hypotheses).powf(cfg.size_agreement_weight)
+        let hidden = if cfg.hidden_weight > 0.0 {
+            plain_iou.max(1e-6).powf(cfg.hidden_weight)
         } else {
-            score
+            1.0
         };
+        let rank_score = hidden
+            * if prior.is_some() {
+                if near_prior(&pose) {
+                    score
+                } else {
+                    score * (1.0 - cfg.prior_switch_margin)
+                }
+            } else if cfg.size_agreement_weight > 0.0 {
+                score * size_agreement(obs, &pose, &cfg.hypotheses).powf(cfg.size_agreement_weight)
+            } else {
+                score
+            };
         if best.as_ref().is_none_or(|b| rank_score > b.0) {
             best = Some((
                 rank_score,
