@@ -47,7 +47,66 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let seed: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(2026);
     let oracle = args.get(2).is_none_or(|s| s == "oracle");
-    let verbose = args.get(3).is_some();
+    let verbose = args.get(3).is_some_and(|s| s == "verbose");
+    if args.get(3).is_some_and(|s| s == "time") {
+        // Whole `estimate_box` (default config), min of 3 runs per box, median over boxes.
+        let set = synthetic_set(seed, 150, 0.5);
+        let cfg = Config::default();
+        let mut t_all = Vec::new();
+        for f in &set.frames {
+            for inst in &f.instances {
+                let mut best = f64::INFINITY;
+                for _ in 0..3 {
+                    let t = Instant::now();
+                    let _ = estimate_box(&f.depth, &f.intrinsics, &inst.mask, &cfg);
+                    best = best.min(t.elapsed().as_secs_f64() * 1e3);
+                }
+                t_all.push(best);
+            }
+        }
+        t_all.sort_by(f64::total_cmp);
+        println!(
+            "estimate_box ms median {:.3} p90 {:.3}",
+            t_all[t_all.len() / 2],
+            t_all[t_all.len() * 9 / 10]
+        );
+        return;
+    }
+    if args.get(3).is_some_and(|s| s == "observe") {
+        // Time `observe` alone (min of 5 runs per box), median over boxes.
+        let set = synthetic_set(seed, 150, 0.5);
+        let cfg = Config::default();
+        let mut t_obs = Vec::new();
+        let mut npts = Vec::new();
+        for f in &set.frames {
+            for inst in &f.instances {
+                let mut best = f64::INFINITY;
+                for _ in 0..5 {
+                    let t = Instant::now();
+                    let o = anybox::observation::observe(
+                        &f.depth,
+                        &f.intrinsics,
+                        &inst.mask,
+                        &cfg.observation,
+                    );
+                    best = best.min(t.elapsed().as_secs_f64() * 1e3);
+                    if let Ok(o) = o {
+                        npts.push(o.points_mm.len() as f64);
+                    }
+                }
+                t_obs.push(best);
+            }
+        }
+        t_obs.sort_by(f64::total_cmp);
+        npts.sort_by(f64::total_cmp);
+        println!(
+            "observe ms median {:.3} p90 {:.3}  points median {}",
+            t_obs[t_obs.len() / 2],
+            t_obs[t_obs.len() * 9 / 10],
+            npts[npts.len() / 2]
+        );
+        return;
+    }
     let set = synthetic_set(seed, 150, 0.5);
     let (mut scores, mut ious, mut ms) = (Vec::new(), Vec::new(), Vec::new());
     let mut n_full = 0;

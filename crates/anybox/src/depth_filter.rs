@@ -115,15 +115,17 @@ impl CellMinDepth {
         for v in va..vb {
             let row = ((v / c - cj0) * ncu) as usize;
             let line = v as usize * w;
-            for u in ua..ub {
-                let d = depth
-                    .depth_mm
-                    .get(line + u as usize)
-                    .copied()
-                    .unwrap_or(0.0);
-                if d > 0.0 && d.is_finite() {
-                    let slot = &mut min_mm[row + (u / c - ci0) as usize];
-                    if d < *slot {
+            // The row's pixels `ua..ub`, one chunk of `c` per cell (missing buffer = invalid).
+            let lo = (line + ua as usize).min(depth.depth_mm.len());
+            let hi = (line + ub as usize).min(depth.depth_mm.len());
+            let slots = &mut min_mm[row..row + ncu as usize];
+            for (slot, chunk) in slots
+                .iter_mut()
+                .zip(depth.depth_mm[lo..hi].chunks(c as usize))
+            {
+                for &d in chunk {
+                    // NaN and non-positive depths never win; +inf stays "no depth".
+                    if d > 0.0 && d < *slot {
                         *slot = d;
                     }
                 }
@@ -160,7 +162,8 @@ impl CellMinDepth {
     /// at integers); `None` outside the region or on a cell without valid depth.
     #[inline]
     pub fn at(&self, u: f64, v: f64) -> Option<f32> {
-        let (ur, vr) = (u.round(), v.round());
+        // Nearest pixel: `(x + 0.5) as u32` truncates, i.e. rounds for x ≥ −0.5 (no libm call).
+        let (ur, vr) = (u + 0.5, v + 0.5);
         if !(ur >= 0.0 && vr >= 0.0 && ur < 1e9 && vr < 1e9) {
             return None;
         }
