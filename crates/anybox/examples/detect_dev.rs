@@ -2,6 +2,8 @@
 //! on generated views and on `/work/shared/data/ycbv-boxes`, with timing.
 //!
 //! `cargo run --release -p anybox --example detect_dev -- [views-per-config] [dump-dir]`
+//! Env: `SEED=<u64>` (default 7), `ONLY=<layout>`, `NOISE=none`, `DETECT_CFG=<json>`, `LABELS=1`,
+//! `EST=1`, `VERBOSE=1`.
 //! A GT box counts when its visible fraction is ≥ 0.5; a detection is a true positive when its
 //! mask IoU with an unmatched such GT is > 0.5 (greedy in score order); detections matching a
 //! GT with lower visibility are ignored (neither TP nor FP).
@@ -140,6 +142,36 @@ fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], tally: &mut Tally) {
             None => tally.scored.push((d.score, false)),
         }
     }
+    if std::env::var("VERBOSE").is_ok() {
+        for k in 0..n {
+            if want[k] && !matched[k] {
+                let best = dets
+                    .iter()
+                    .enumerate()
+                    .map(|(j, d)| {
+                        let i = d
+                            .mask
+                            .data
+                            .iter()
+                            .zip(&gts[k].0.data)
+                            .filter(|(a, b)| **a && **b)
+                            .count();
+                        (
+                            j,
+                            i as f64 / (d.mask.count() + gt_area[k] - i).max(1) as f64,
+                        )
+                    })
+                    .max_by(|a, b| a.1.total_cmp(&b.1));
+                println!(
+                    "  missed gt {k} visib {:.2} px {} bbox {:?} best det {:?}",
+                    gts[k].1,
+                    gt_area[k],
+                    gts[k].0.bbox(),
+                    best
+                );
+            }
+        }
+    }
     tally.frames += 1;
     if (0..n).all(|k| !want[k] || matched[k]) {
         tally.frames_all_found += 1;
@@ -241,7 +273,10 @@ fn main() {
             scenes: n_views,
             views: 1,
             distractors,
-            seed: 7,
+            seed: std::env::var("SEED")
+                .ok()
+                .and_then(|s| s.parse().ok())
+                .unwrap_or(7),
             noise: if std::env::var("NOISE").is_ok_and(|n| n == "none") {
                 NoiseModel::None
             } else {

@@ -657,9 +657,22 @@ fn score_group(
         cfg.extent_quantile
     };
     for (k, ax) in axes.iter().enumerate() {
-        vals.clear();
-        vals.extend(pts.iter().map(|p| p.dot(ax)));
-        let (lo, hi) = robust_range(&mut vals, q);
+        let (lo, hi) = if mem.len() > 1 && cfg.per_face_extents {
+            // Union of each face's robust range: a narrow side face (a few per cent of the
+            // points) still spans the box's depth, which quantiles over all points would cut.
+            let mut r = (f64::INFINITY, f64::NEG_INFINITY);
+            for &f in mem {
+                vals.clear();
+                vals.extend(cells[f].iter().map(|&i| v3(&g.p[i as usize]).dot(ax)));
+                let (a, b) = robust_range(&mut vals, q);
+                r = (r.0.min(a), r.1.max(b));
+            }
+            r
+        } else {
+            vals.clear();
+            vals.extend(pts.iter().map(|p| p.dot(ax)));
+            robust_range(&mut vals, q)
+        };
         let (lo, hi) = if mem.len() == 1 && k == 0 {
             // A single face: its thickness is unseen; the silhouette test uses the face itself.
             let mid = (lo + hi) / 2.0;

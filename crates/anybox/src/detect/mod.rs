@@ -130,6 +130,10 @@ pub struct DetectConfig {
     pub edge_length_ratio: f64,
     /// Extents are measured between these quantiles of the points (and 1 − it). Default 0.02.
     pub extent_quantile: f64,
+    /// Extents of a two- or three-face candidate are the union of each face's robust range
+    /// (`extent_quantile` per face) instead of quantiles over all its points, which cut a
+    /// narrow side face (a flat carton's rim) and made the box look paper-thin. Default true.
+    pub per_face_extents: bool,
     /// Candidates with an observed dimension above this are rejected (pallets, shelf beams,
     /// walls, whole pallet loads), mm. Default 800.
     pub max_box_extent_mm: f64,
@@ -153,6 +157,9 @@ pub struct DetectConfig {
     /// A surface-level candidate splits into its colour-level candidates when at least this
     /// many seam cells lie next to two of them with coplanar faces (flush cartons). Default 6.
     pub split_min_seam_cells: u32,
+    /// A seam that stops at the candidate's perpendicular side face (seen there, not
+    /// continuing down it) is the carton's own flap seam and does not split it. Default true.
+    pub split_flap_check: bool,
     /// "Next to" for `split_min_seam_cells`: within this many cells. Default 3.
     pub split_seam_reach_cells: u32,
     /// Colour-level candidates count for a split when they hold at least this fraction of the
@@ -203,6 +210,7 @@ impl Default for DetectConfig {
             convex_margin_mm: 5.0,
             edge_length_ratio: 0.4,
             extent_quantile: 0.02,
+            per_face_extents: true,
             max_box_extent_mm: 800.0,
             min_box_extent_mm: 25.0,
             see_through_margin_mm: 10.0,
@@ -211,6 +219,7 @@ impl Default for DetectConfig {
             two_face_factor: 0.9,
             min_score: 0.3,
             split_min_seam_cells: 6,
+            split_flap_check: true,
             split_seam_reach_cells: 3,
             split_min_fraction: 0.03,
             max_overlap: 0.3,
@@ -407,6 +416,50 @@ fn validate(
     Ok(())
 }
 
+/// Whether the seam cells `seam` on a face with normal `top` are a carton's own flap seam
+/// rather than the joint of two flush cartons: the candidate's perpendicular (side) face is
+/// seen where the seam line meets it, and no seam continues down it (two cartons' creased
+/// edges would).
+fn flap_seam(g: &grid::Grid, cells: &[u32], seam: &[usize], top: &nalgebra::Vector3<f64>) -> bool {
+    use nalgebra::{Matrix3, Vector3};
+    let v = |i: usize| Vector3::new(g.p[i][0] as f64, g.p[i][1] as f64, g.p[i][2] as f64);
+    if seam.len() < 2 {
+        return false;
+    }
+    let s0 = seam.iter().map(|&i| v(i)).sum::<Vector3<f64>>() / seam.len() as f64;
+    let mut cov = Matrix3::zeros();
+    for &i in seam {
+        let d = v(i) - s0;
+        cov += d * d.transpose();
+    }
+    let eig = cov.symmetric_eigen();
+    let Some(big) = eig
+        .eigenvalues
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(b.1))
+    else {
+        return false;
+    };
+    let d = eig.eigenvectors.column(big.0).into_owned();
+    let Some(m) = d.cross(top).try_normalize(1e-9) else {
+        return false;
+    };
+    let (mut near, mut near_seam) = (0usize, 0usize);
+    for &c in cells {
+        let i = c as usize;
+        let n = Vector3::new(g.n[i][0] as f64, g.n[i][1] as f64, g.n[i][2] as f64);
+        if g.z[i] <= 0.0 || n.dot(top).abs() >= 0.5 {
+            continue;
+        }
+        if (v(i) - s0).dot(&m).abs() < 20.0 {
+            near += 1;
+            near_seam += g.seam[i] as usize;
+        }
+    }
+    near >= 6 && near_seam * 10 <= near
+}
+
 /// Chooses between the surface-level and the colour-level candidates, then suppresses
 /// overlaps. A surface-level candidate stands unless a seam (thin dark line) runs between two
 /// of its colour-level candidates (each `split_min_fraction` of it) with coplanar faces — then
@@ -466,7 +519,8 @@ fn select(
         // Seam cells of this candidate next to two coplanar colour-level candidates: a seam
         // between flush faces of two cartons (a box's own faces are perpendicular, and tape or
         // print edges are colour steps, not thin dark lines).
-        let mut between: std::collections::BTreeMap<(usize, usize), usize> = Default::default();
+        let mut between: std::collections::BTreeMap<(usize, usize), Vec<usize>> =
+            Default::default();
         for &cell in &gc.cells {
             let i = cell as usize;
             if !g.seam[i] {
@@ -490,15 +544,15 @@ fn select(
             for (x, &a) in near.iter().enumerate() {
                 for &b in &near[x + 1..] {
                     if col[a].normal.dot(&col[b].normal) >= cos_par {
-                        *between.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+                        between.entry((a.min(b), a.max(b))).or_default().push(i);
                     }
                 }
             }
         }
-        if between
-            .values()
-            .any(|&n| n >= cfg.split_min_seam_cells as usize)
-        {
+        if between.iter().any(|(&(a, _), seam)| {
+            seam.len() >= cfg.split_min_seam_cells as usize
+                && !(cfg.split_flap_check && flap_seam(g, &gc.cells, seam, &col[a].normal))
+        }) {
             out_geo[k] = false;
             for &c in &inside[k] {
                 take_col[c] = true;
