@@ -261,12 +261,16 @@ fn config_for(v: &Variant, gt: &OrientedBox) -> Config {
     }
 }
 
-/// Runs one variant on a set: accuracy and single-threaded per-box time from one sequential
-/// pass of `estimate_box`, frame time from `estimate_frame` on all cores.
+/// Runs one variant on a set.
+///
+/// - Accuracy: the whole-frame pipeline (`estimate_frame`, with its cross-instance context such
+///   as shared layer heights) on all cores, which also gives the frame time. The oracle variant
+///   needs one size per box, so it runs `estimate_box` per instance instead.
+/// - Time per box: a second, sequential pass of `estimate_box` on one thread.
 pub fn run_variant(set: &BenchSet, v: &Variant, min_visib: f64) -> VariantResult {
     let mut gts = Vec::new();
     let mut ests = Vec::new();
-    let mut box_ms = Vec::new();
+    let mut frame_ms = Vec::new();
     let mut failures = 0;
     for f in &set.frames {
         for inst in &f.instances {
@@ -278,10 +282,22 @@ pub fn run_variant(set: &BenchSet, v: &Variant, min_visib: f64) -> VariantResult
                 visib_fract: inst.visib_fract,
                 observed_dims: Some(inst.observed_dims),
             });
-            let cfg = config_for(v, &inst.gt);
-            let start = Instant::now();
-            let r = estimate_box(&f.depth, &f.intrinsics, &inst.mask, &cfg);
-            box_ms.push(start.elapsed().as_secs_f64() * 1e3);
+        }
+        if f.instances.is_empty() {
+            continue;
+        }
+        let start = Instant::now();
+        let results: Vec<_> = if v.oracle_size {
+            f.instances
+                .par_iter()
+                .map(|i| estimate_box(&f.depth, &f.intrinsics, &i.mask, &config_for(v, &i.gt)))
+                .collect()
+        } else {
+            let masks: Vec<Mask> = f.instances.iter().map(|i| i.mask.clone()).collect();
+            estimate_frame(&f.depth, &f.intrinsics, &masks, &v.config)
+        };
+        frame_ms.push(start.elapsed().as_secs_f64() * 1e3);
+        for (inst, r) in f.instances.iter().zip(results) {
             match r {
                 Ok(e) => ests.push(EstEntry {
                     scene_id: f.scene_id,
@@ -294,25 +310,14 @@ pub fn run_variant(set: &BenchSet, v: &Variant, min_visib: f64) -> VariantResult
             }
         }
     }
-    // Frame time with all cores (the oracle variant needs one size per box, so it is timed
-    // through estimate_box in parallel instead).
-    let mut frame_ms = Vec::new();
+    let mut box_ms = Vec::new();
     for f in &set.frames {
-        if f.instances.is_empty() {
-            continue;
+        for inst in &f.instances {
+            let cfg = config_for(v, &inst.gt);
+            let start = Instant::now();
+            let _ = estimate_box(&f.depth, &f.intrinsics, &inst.mask, &cfg);
+            box_ms.push(start.elapsed().as_secs_f64() * 1e3);
         }
-        let start = Instant::now();
-        if v.oracle_size {
-            let _: Vec<_> = f
-                .instances
-                .par_iter()
-                .map(|i| estimate_box(&f.depth, &f.intrinsics, &i.mask, &config_for(v, &i.gt)))
-                .collect();
-        } else {
-            let masks: Vec<Mask> = f.instances.iter().map(|i| i.mask.clone()).collect();
-            let _ = estimate_frame(&f.depth, &f.intrinsics, &masks, &v.config);
-        }
-        frame_ms.push(start.elapsed().as_secs_f64() * 1e3);
     }
     let base = EvalOptions {
         min_visib,
