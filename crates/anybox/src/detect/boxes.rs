@@ -77,7 +77,7 @@ pub(crate) fn support_mask(
     // does not count.
     let up = cands
         .iter()
-        .filter(|c| c.2)
+        .filter(|c| c.2 || (cfg.support_up_from_standing && c.3))
         .max_by(|a, b| a.1.area_mm2.total_cmp(&b.1.area_mm2))
         .map(|c| c.1.normal);
     let cos_up = cfg.support_normal_tol_deg.to_radians().cos();
@@ -369,6 +369,17 @@ pub(crate) fn group_candidates(
 ) -> Vec<Raw> {
     let n = regions.len();
     let face: Vec<bool> = regions.iter().map(|r| is_face(r, cfg)).collect();
+    if std::env::var("DETECT_DEBUG").is_ok() {
+        for (k, r) in regions.iter().enumerate() {
+            if r.n >= 100 {
+                eprintln!(
+                    "region {k} n {} face {} inl {:.2} spread {:.1} bend {:.1} normal {:.2} {:.2} {:.2}",
+                    r.n, face[k], r.inlier_frac, r.normal_spread_deg, r.bend_deg,
+                    r.normal.x, r.normal.y, r.normal.z
+                );
+            }
+        }
+    }
     let mut cells: Vec<Vec<u32>> = vec![Vec::new(); n];
     for (i, &l) in labels.iter().enumerate() {
         if l != NONE {
