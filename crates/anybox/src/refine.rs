@@ -141,7 +141,8 @@ pub fn refine_pose(init: &OrientedBox, points: &[Point3<f64>], cfg: &RefineConfi
         let r = *pose.rotation.matrix();
         let rt = r.transpose();
         let c0 = pose.center_mm;
-        let mut hm = Matrix6::<f64>::zeros();
+        // Upper triangle of the (symmetric) normal matrix, row-major: half the work of J Jᵀ.
+        let mut upper = [0f64; 21];
         let mut g = Vector6::<f64>::zeros();
         let mut used = 0usize;
         for p in points {
@@ -171,13 +172,29 @@ pub fn refine_pose(init: &OrientedBox, points: &[Point3<f64>], cfg: &RefineConfi
             let n = r * n_loc;
             let arm = p.coords - c0;
             let jr = arm.cross(&n);
-            let j = Vector6::new(jr.x, jr.y, jr.z, n.x, n.y, n.z);
-            hm += j * j.transpose() * w;
-            g += j * (w * e);
+            let j = [jr.x, jr.y, jr.z, n.x, n.y, n.z];
+            let mut t = 0;
+            for a in 0..6 {
+                let wa = w * j[a];
+                for &jb in &j[a..] {
+                    upper[t] += wa * jb;
+                    t += 1;
+                }
+                g[a] += wa * e;
+            }
             used += 1;
         }
         if used < 6 {
             break;
+        }
+        let mut hm = Matrix6::<f64>::zeros();
+        let mut t = 0;
+        for a in 0..6 {
+            for b in a..6 {
+                hm[(a, b)] = upper[t];
+                hm[(b, a)] = upper[t];
+                t += 1;
+            }
         }
         // Light Levenberg damping keeps unobservable directions (e.g. sliding along one face
         // with no edge in view) at zero instead of blowing up.
