@@ -100,10 +100,11 @@ pub struct DetectConfig {
     /// A support candidate with fewer than this fraction of the frame's valid cells behind
     /// its plane bounds the scene (floor, wall) and is a support. Default 0.02.
     pub support_max_behind_fraction: f64,
-    /// When true, "up" (the direction things stand along) is the normal of the largest plane that bounds
-    /// the scene or has things standing on it; false: only planes bounding the scene (a wall
-    /// behind a table then makes the table top a non-support). Default false: neutral on the
-    /// bench (AP50 within ±0.003 on seeds 7 and 2026), though it fixes the table support.
+    /// When true, "up" (the direction things stand along) is the normal of the largest plane
+    /// that bounds the scene or has things standing on it; false: of the largest plane that
+    /// bounds the scene (a wall behind a table then makes the table top a non-support).
+    /// Default false: neutral on the bench (AP50 within ±0.003 on seeds 7 and 2026), though
+    /// it makes such table tops supports.
     pub support_up_from_standing: bool,
     /// Dominant planes sought by RANSAC over all cells (floors and tables cut into pieces by
     /// noise or texture). Default 3.

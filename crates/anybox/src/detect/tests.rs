@@ -402,3 +402,66 @@ fn config_json_partial_and_round_trip() {
         crate::config::Config::from_json(r#"{"detect": {"max_box_extent_mm": 500}}"#).unwrap();
     assert_eq!(full.detect.max_box_extent_mm, 500.0);
 }
+
+/// A flat carton with the dark flap seam across the middle of its top, running towards the
+/// camera (its end face seen unsplit): one box, not two halves.
+#[test]
+fn flat_carton_with_flap_seam_is_one_box() {
+    let s = Scene::new();
+    let size = Vector3::new(320.0, 220.0, 45.0);
+    let right = Vector3::x();
+    let fwd = s.up.cross(&right).normalize();
+    let yaw = Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(s.up), 65f64.to_radians());
+    let m = nalgebra::Matrix3::from_columns(&[yaw * right, yaw * fwd, s.up]);
+    let bx = OrientedBox {
+        rotation: Rotation3::from_matrix_unchecked(m),
+        center_mm: s.on_table(-30.0, 0.0, size.z / 2.0),
+        size_mm: size,
+    };
+    let (mut rgb, depth, owner) = s.render(&[Obj::Cuboid(bx)]);
+    // The flap seam: a 3 mm dark line along the top's long axis.
+    let kk = k();
+    let mut seam_px = 0;
+    for v in 0..H {
+        for u in 0..W {
+            let i = (v * W + u) as usize;
+            if owner[i] != 0 {
+                continue;
+            }
+            let z = depth.depth_mm[i] as f64;
+            let p = Vector3::new(
+                (u as f64 - kk.cx) / kk.fx * z,
+                (v as f64 - kk.cy) / kk.fy * z,
+                z,
+            );
+            let l = bx.rotation.inverse() * (p - bx.center_mm);
+            if (l.z - size.z / 2.0).abs() < 3.0 && l.y.abs() < 1.5 {
+                let px = rgb.get_pixel_mut(u, v);
+                px.0 = px.0.map(|c| (c as f64 * 0.55) as u8);
+                seam_px += 1;
+            }
+        }
+    }
+    assert!(seam_px > 100, "seam drawn: {seam_px} px");
+    let gt = mask_of(&owner, 0);
+    let dets = detect_boxes(Some(&rgb), &depth, &k(), &DetectConfig::default()).unwrap();
+    let found: Vec<_> = dets
+        .iter()
+        .map(|d| (d.score, d.n_faces, iou(&d.mask, &gt)))
+        .collect();
+    assert!(
+        dets.iter()
+            .any(|d| iou(&d.mask, &gt) > 0.85 && d.n_faces >= 2),
+        "one carton with its side: {found:?}"
+    );
+    // Premise: without the flap-seam check the seam splits it into two halves.
+    let cfg = DetectConfig {
+        split_flap_check: false,
+        ..DetectConfig::default()
+    };
+    let dets = detect_boxes(Some(&rgb), &depth, &k(), &cfg).unwrap();
+    assert!(
+        !dets.iter().any(|d| iou(&d.mask, &gt) > 0.85),
+        "the seam no longer splits without the check: premise gone"
+    );
+}
