@@ -625,6 +625,38 @@ mod tests {
     }
 
     #[test]
+    fn missing_depth_explains_overflow_only_when_asked() {
+        // A 20×20 patch at 800 mm, nothing else has depth except a nearer occluder strip.
+        let kk = k();
+        let mut depth = DepthMap::zeros(64, 48);
+        let mut mask = Mask::empty(64, 48);
+        for v in 10..30u32 {
+            for u in 20..40u32 {
+                depth.depth_mm[(v * 64 + u) as usize] = 800.0;
+                mask.set(u, v, true);
+            }
+        }
+        for v in 10..30u32 {
+            depth.depth_mm[(v * 64 + 40) as usize] = 500.0;
+        }
+        let cfg = ObservationConfig::default();
+        assert!(!cfg.missing_explains);
+        let obs = observe(&depth, &kk, &mask, &cfg).unwrap();
+        // Only the occluder strip explains anything.
+        assert_eq!(obs.explained_rows.count, 20);
+        let with = ObservationConfig {
+            missing_explains: true,
+            ..cfg
+        };
+        let obs = observe(&depth, &kk, &mask, &with).unwrap();
+        assert!(
+            obs.explained_rows.count > 20 + 400,
+            "{}",
+            obs.explained_rows.count
+        );
+    }
+
+    #[test]
     fn bad_inputs_are_errors() {
         let kk = k();
         let depth = DepthMap::zeros(64, 48);
