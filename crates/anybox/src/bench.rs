@@ -54,6 +54,20 @@ pub struct BenchFrame {
     pub instances: Vec<BenchInstance>,
 }
 
+impl BenchFrame {
+    /// The frame's instances as evaluator ground truths.
+    pub fn gt_entries(&self) -> impl Iterator<Item = GtEntry> + '_ {
+        self.instances.iter().map(|inst| GtEntry {
+            scene_id: self.scene_id,
+            im_id: self.im_id,
+            gt_index: inst.gt_index,
+            pose: inst.gt,
+            visib_fract: inst.visib_fract,
+            observed_dims: Some(inst.observed_dims),
+        })
+    }
+}
+
 /// A named set of frames.
 #[derive(Debug, Clone)]
 pub struct BenchSet {
@@ -273,16 +287,7 @@ pub fn run_variant(set: &BenchSet, v: &Variant, min_visib: f64) -> VariantResult
     let mut frame_ms = Vec::new();
     let mut failures = 0;
     for f in &set.frames {
-        for inst in &f.instances {
-            gts.push(GtEntry {
-                scene_id: f.scene_id,
-                im_id: f.im_id,
-                gt_index: inst.gt_index,
-                pose: inst.gt,
-                visib_fract: inst.visib_fract,
-                observed_dims: Some(inst.observed_dims),
-            });
-        }
+        gts.extend(f.gt_entries());
         if f.instances.is_empty() {
             continue;
         }
@@ -466,16 +471,7 @@ pub fn run_detection(set: &BenchSet, config: &Config, min_visib: f64) -> Detecti
     let mut frame_ms = Vec::new();
     let (mut n_det, mut n_fp, mut errors) = (0, 0, 0);
     for f in &set.frames {
-        for inst in &f.instances {
-            gts.push(GtEntry {
-                scene_id: f.scene_id,
-                im_id: f.im_id,
-                gt_index: inst.gt_index,
-                pose: inst.gt,
-                visib_fract: inst.visib_fract,
-                observed_dims: Some(inst.observed_dims),
-            });
-        }
+        gts.extend(f.gt_entries());
         let start = Instant::now();
         let dets =
             crate::detect::detect_boxes(f.rgb.as_ref(), &f.depth, &f.intrinsics, &config.detect);

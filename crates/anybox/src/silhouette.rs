@@ -18,6 +18,10 @@
 //!   pixels are centres at integer coordinates, so a mask spanning `n` pixels has centres `n − 1`
 //!   apart; one pixel is added to the observed extent so that both measure the same thing.
 
+// Projection and the hull are the geometry crate's (one convention for every caller).
+pub use anybox_geom::projection::{
+    convex_hull_2d as convex_hull, project_corners_px, silhouette_hull_px,
+};
 use anybox_geom::{Intrinsics, OrientedBox};
 use anybox_io::Mask;
 use nalgebra::{Point2, Point3, Vector2, Vector3};
@@ -85,16 +89,6 @@ pub fn axis_directions(pose: &OrientedBox, k: &Intrinsics) -> Option<AxisDirecti
         if fs >= MIN_FORESHORTENING && len > 0.0 {
             out.dirs[a] = Some(v / len);
         }
-    }
-    Some(out)
-}
-
-/// Projects the 8 corners to pixels; `None` if any corner is not in front of the camera.
-pub fn project_corners_px(pose: &OrientedBox, k: &Intrinsics) -> Option<[Point2<f64>; 8]> {
-    let corners = pose.corners_mm();
-    let mut out = [Point2::origin(); 8];
-    for (o, c) in out.iter_mut().zip(corners.iter()) {
-        *o = k.project(c)?;
     }
     Some(out)
 }
@@ -211,47 +205,6 @@ pub fn mask_pixels(mask: &Mask) -> Vec<[u32; 2]> {
         .filter(|(_, b)| **b)
         .map(|(i, _)| [(i % w) as u32, (i / w) as u32])
         .collect()
-}
-
-/// 2D convex hull (Andrew's monotone chain), counter-clockwise in a y-up frame, no collinear points.
-pub fn convex_hull(points: &[Point2<f64>]) -> Vec<Point2<f64>> {
-    let mut pts: Vec<Point2<f64>> = points
-        .iter()
-        .copied()
-        .filter(|p| p.x.is_finite() && p.y.is_finite())
-        .collect();
-    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
-    pts.dedup();
-    if pts.len() < 3 {
-        return pts;
-    }
-    let cross = |o: &Point2<f64>, a: &Point2<f64>, b: &Point2<f64>| {
-        (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x)
-    };
-    let mut hull: Vec<Point2<f64>> = Vec::with_capacity(2 * pts.len());
-    for p in pts.iter() {
-        while hull.len() >= 2 && cross(&hull[hull.len() - 2], &hull[hull.len() - 1], p) <= 0.0 {
-            hull.pop();
-        }
-        hull.push(*p);
-    }
-    let lower_len = hull.len() + 1;
-    for p in pts.iter().rev().skip(1) {
-        while hull.len() >= lower_len
-            && cross(&hull[hull.len() - 2], &hull[hull.len() - 1], p) <= 0.0
-        {
-            hull.pop();
-        }
-        hull.push(*p);
-    }
-    hull.pop();
-    hull
-}
-
-/// The cuboid silhouette: convex hull of the projected corners, px. `None` if a corner is behind
-/// the camera.
-pub fn silhouette_hull_px(pose: &OrientedBox, k: &Intrinsics) -> Option<Vec<Point2<f64>>> {
-    project_corners_px(pose, k).map(|c| convex_hull(&c))
 }
 
 /// Row spans `(v, u_first, u_last)` of the pixels whose centre lies inside a convex polygon,
