@@ -79,7 +79,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         })
         .collect();
     let mut md = String::new();
-    for set in &sets {
+    for set in sets.iter().filter(|_| !variants.is_empty()) {
         let min_visib = if set.name.starts_with("ycbv") {
             0.1
         } else {
