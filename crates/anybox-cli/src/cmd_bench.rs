@@ -9,7 +9,6 @@ use anybox::bench::{
     bop_set, default_variants, detection_sets, detection_table, markdown_table, run_detection,
     run_variant, synthetic_set, BenchSet,
 };
-use anybox::config::Config;
 use anybox::io::bop::BopDataset;
 
 /// Benchmark the estimator variants (full, no depth filter, no early stopping, canonical size,
@@ -47,6 +46,10 @@ pub struct BenchArgs {
     /// Also write the markdown to this file.
     #[arg(long, value_name = "MD")]
     pub markdown: Option<PathBuf>,
+    /// Configuration of the detection rows as JSON (fields of anybox::config::Config, e.g.
+    /// `{"detect": {"blobs": false}}`; missing = defaults). The variant rows keep their own.
+    #[arg(long, value_name = "JSON")]
+    pub config: Option<PathBuf>,
 }
 
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
@@ -96,7 +99,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         md.push('\n');
     }
     if !args.no_detect {
-        let config = Config::default();
+        let config = crate::cmd_estimate::load_config(args.config.as_deref())?;
         let mut rows = Vec::new();
         for set in detection_sets(args.seed, args.detect_frames) {
             eprintln!("detection: {} …", set.name);

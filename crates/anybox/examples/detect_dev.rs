@@ -79,7 +79,7 @@ impl Tally {
 }
 
 /// Scores one frame: GT masks with their visibility.
-fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], tally: &mut Tally) {
+fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], objs: Option<&[u32]>, tally: &mut Tally) {
     let n = gts.len();
     let mut gt_area = vec![0usize; n];
     let mut label = vec![u16::MAX; gts.first().map_or(0, |g| g.0.data.len())];
@@ -130,6 +130,20 @@ fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], tally: &mut Tally) {
                 best = Some((k, iou));
             }
         }
+        if std::env::var("VERBOSE").is_ok() {
+            let tag = match best {
+                Some((k, _)) if want[k] => format!("TP gt {k}"),
+                Some((k, _)) => format!("ign gt {k}"),
+                None => "FP".to_string(),
+            };
+            println!(
+                "  det score {:.3} faces {} px {} bbox {:?} {tag}",
+                d.score,
+                d.n_faces,
+                d.mask.count(),
+                d.mask.bbox()
+            );
+        }
         match best {
             Some((k, _)) if want[k] => {
                 matched[k] = true;
@@ -162,12 +176,30 @@ fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], tally: &mut Tally) {
                         )
                     })
                     .max_by(|a, b| a.1.total_cmp(&b.1));
+                // The connected object covering most of the GT: its share of the GT, and
+                // the GT's share of it (1 = isolated; lower = merged with others).
+                let obj = objs.map(|o| {
+                    let mut c: std::collections::BTreeMap<u32, usize> = Default::default();
+                    for (i, &b) in gts[k].0.data.iter().enumerate() {
+                        if b {
+                            *c.entry(o[i]).or_insert(0) += 1;
+                        }
+                    }
+                    let (l, n) = c
+                        .into_iter()
+                        .filter(|x| x.0 != u32::MAX)
+                        .max_by_key(|x| x.1)
+                        .unwrap_or((u32::MAX, 0));
+                    let size = o.iter().filter(|&&x| x == l && l != u32::MAX).count();
+                    (n as f64 / gt_area[k] as f64, n as f64 / size.max(1) as f64)
+                });
                 println!(
-                    "  missed gt {k} visib {:.2} px {} bbox {:?} best det {:?}",
+                    "  missed gt {k} visib {:.2} px {} bbox {:?} best det {:?} obj cover/purity {:?}",
                     gts[k].1,
                     gt_area[k],
                     gts[k].0.bbox(),
-                    best
+                    best,
+                    obj
                 );
             }
         }
@@ -228,13 +260,13 @@ fn dump_labels(
     let Ok(ls) = anybox::detect::segment_labels(Some(rgb), depth, k, cfg) else {
         return;
     };
-    for (li, name) in [(0usize, "geo"), (1, "col")] {
+    for (li, name) in [(0usize, "geo"), (1, "col"), (2, "obj")] {
         let mut img = rgb.clone();
         for (i, &l) in ls[li].iter().enumerate() {
             let p = img.get_pixel_mut(i as u32 % rgb.width(), i as u32 / rgb.width());
-            if ls[3][i] == 1 {
+            if ls[4][i] == 1 && li != 2 {
                 p.0 = [255, 0, 0];
-            } else if ls[2][i] == 1 {
+            } else if ls[3][i] == 1 {
                 p.0 = [p.0[0] / 4, p.0[1] / 4, p.0[2] / 4];
             } else if l == u32::MAX {
                 p.0 = [255, 255, 255];
@@ -300,16 +332,68 @@ fn main() {
                 );
             }
             let ms = t0.elapsed().as_secs_f64() * 1e3;
-            if std::env::var("VERBOSE").is_ok() {
-                for d in &dets {
+            if std::env::var("EST3D").is_ok() {
+                // Per GT (visib ≥ 0.5): best detection mask IoU, and the 3D IoU of the estimate
+                // from that detection's mask versus from the GT mask.
+                use anybox::geom::iou::{iou, IouMethod};
+                let cfg_e = anybox::config::Config::default();
+                let masks: Vec<Mask> = dets.iter().map(|d| d.mask.clone()).collect();
+                let est_d =
+                    anybox::pipeline::estimate_frame(&v.depth, &v.intrinsics, &masks, &cfg_e);
+                let gtm: Vec<Mask> = v.boxes.iter().map(|b| b.mask_visib.clone()).collect();
+                let est_g = anybox::pipeline::estimate_frame(&v.depth, &v.intrinsics, &gtm, &cfg_e);
+                for (k, b) in v.boxes.iter().enumerate() {
+                    if b.visib_fract < 0.5 {
+                        continue;
+                    }
+                    let best = dets
+                        .iter()
+                        .enumerate()
+                        .map(|(j, d)| {
+                            let i = d
+                                .mask
+                                .data
+                                .iter()
+                                .zip(&b.mask_visib.data)
+                                .filter(|(a, c)| **a && **c)
+                                .count();
+                            (
+                                j,
+                                i as f64
+                                    / (d.mask.count() + b.mask_visib.count() - i).max(1) as f64,
+                            )
+                        })
+                        .max_by(|a, b| a.1.total_cmp(&b.1));
+                    let i3 = |e: &Result<anybox::pipeline::BoxEstimate, _>| {
+                        e.as_ref()
+                            .map_or(-1.0, |e| iou(&e.pose, &b.pose, IouMethod::Exact))
+                    };
+                    let (j, miou) = best.unwrap_or((usize::MAX, 0.0));
+                    let d3 = if j == usize::MAX { -1.0 } else { i3(&est_d[j]) };
+                    let d1 = if j == usize::MAX {
+                        -1.0
+                    } else {
+                        i3(&anybox::pipeline::estimate_box(
+                            &v.depth,
+                            &v.intrinsics,
+                            &masks[j],
+                            &cfg_e,
+                        ))
+                    };
+                    let g1 = i3(&anybox::pipeline::estimate_box(
+                        &v.depth,
+                        &v.intrinsics,
+                        &gtm[k],
+                        &cfg_e,
+                    ));
                     println!(
-                        "  {name} s{s} det score {:.3} faces {} px {} bbox {:?}",
-                        d.score,
-                        d.n_faces,
-                        d.mask.count(),
-                        d.mask.bbox()
+                        "  3d {name} s{s} gt {k} visib {:.2} size {:.0}x{:.0}x{:.0} mask-iou {miou:.2} iou3d det {d3:.2} gt {:.2} alone det {d1:.2} gt {g1:.2}",
+                        b.visib_fract, b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z, i3(&est_g[k])
                     );
                 }
+            }
+            if std::env::var("VERBOSE").is_ok() {
+                println!("  {name} s{s}");
             }
             tally.times_ms.push(ms);
             total.times_ms.push(ms);
@@ -318,7 +402,12 @@ fn main() {
                 .iter()
                 .map(|b| (b.mask_visib.clone(), b.visib_fract))
                 .collect();
-            score_frame(&dets, &gts, &mut tally);
+            let objs = std::env::var("VERBOSE").ok().and_then(|_| {
+                anybox::detect::segment_labels(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg)
+                    .ok()
+                    .map(|l| l[2].clone())
+            });
+            score_frame(&dets, &gts, objs.as_deref(), &mut tally);
             if let Some(d) = &dump_dir {
                 if let Ok(c) = std::env::var("CROP") {
                     let c: Vec<u32> = c.split(',').filter_map(|x| x.parse().ok()).collect();
@@ -364,7 +453,12 @@ fn main() {
             let gts: Vec<(Mask, f64)> = (0..view.gts.len())
                 .map(|i| (view.load_mask_visib(i).expect("mask"), 1.0))
                 .collect();
-            score_frame(&dets, &gts, &mut tally);
+            let objs = std::env::var("VERBOSE").ok().and_then(|_| {
+                anybox::detect::segment_labels(f.rgb.as_ref(), &f.depth, &f.intrinsics, &cfg)
+                    .ok()
+                    .map(|l| l[2].clone())
+            });
+            score_frame(&dets, &gts, objs.as_deref(), &mut tally);
             if let (Some(d), Some(rgb)) = (&dump_dir, &f.rgb) {
                 dump_labels(
                     &d.join(format!("ycbv_{vi}")),

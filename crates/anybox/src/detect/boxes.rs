@@ -81,11 +81,23 @@ pub(crate) fn support_mask(
         .max_by(|a, b| a.1.area_mm2.total_cmp(&b.1.area_mm2))
         .map(|c| c.1.normal);
     let cos_up = cfg.support_normal_tol_deg.to_radians().cos();
+    if std::env::var("DETECT_DEBUG").is_ok() {
+        for c in &cands {
+            eprintln!(
+                "support cand {:?} area {:.0} n {} normal {:.2} {:.2} {:.2} strong {} standing {} up {:?}",
+                c.0, c.1.area_mm2, c.1.n, c.1.normal.x, c.1.normal.y, c.1.normal.z, c.2, c.3, up
+            );
+        }
+    }
+    // Surface planes first, then RANSAC planes (their cells are marked by plane alone).
+    cands.sort_by_key(|c| c.0.is_none());
+    let mut n_surface_planes = 0;
     for (src, reg, strong, standing) in cands {
         let parallel = up.is_none_or(|u| u.dot(&reg.normal).abs() >= cos_up);
         if strong || (standing && parallel) {
             if let Some(r) = src {
                 is_support[r] = true;
+                n_surface_planes += 1;
             }
             planes.push(reg);
         }
@@ -93,16 +105,20 @@ pub(crate) fn support_mask(
     // Only cells on the support's plane: a box top that leaked into the table's surface (a
     // low box seen at a grazing angle) stays.
     let cos_n = cfg.support_normal_tol_deg.to_radians().cos();
+    let on_plane = |i: usize, reg: &Region| {
+        let n = v3(&g.n[i]);
+        reg.dist(&g.p[i]).abs() <= cfg.support_tol_factor * plane_tol(cfg, g.z[i] as f64)
+            && (n.norm_squared() < 0.5 || n.dot(&reg.normal) >= cos_n)
+    };
+    // Cells of RANSAC support planes too: a table whose surface leaked into the tops of low
+    // boxes (seen from above, their sides hidden) is no support surface of its own.
+    let ransac: Vec<&Region> = planes[n_surface_planes..].iter().collect();
     let on = surface_labels
         .iter()
         .enumerate()
         .map(|(i, &l)| {
-            l != NONE && is_support[l as usize] && {
-                let reg = &surfaces[l as usize];
-                let n = v3(&g.n[i]);
-                reg.dist(&g.p[i]).abs() <= cfg.support_tol_factor * plane_tol(cfg, g.z[i] as f64)
-                    && (n.norm_squared() < 0.5 || n.dot(&reg.normal) >= cos_n)
-            }
+            (l != NONE && is_support[l as usize] && on_plane(i, &surfaces[l as usize]))
+                || (g.z[i] > 0.0 && ransac.iter().any(|pl| on_plane(i, pl)))
         })
         .collect();
     (on, planes)
@@ -603,12 +619,42 @@ fn score_group(
     cfg: &DetectConfig,
 ) -> Option<Raw> {
     let all: Vec<u32> = mem.iter().flat_map(|&f| cells[f].iter().copied()).collect();
-    if all.len() < cfg.min_face_cells as usize {
+    let faces: Vec<&[u32]> = mem.iter().map(|&f| cells[f].as_slice()).collect();
+    let normals: Vec<Vector3<f64>> = mem.iter().map(|&f| regions[f].normal).collect();
+    // Plane fit.
+    let fit = mem
+        .iter()
+        .map(|&f| regions[f].inlier_frac * regions[f].n as f64)
+        .sum::<f64>()
+        / mem.iter().map(|&f| regions[f].n as f64).sum::<f64>();
+    let member = |i: usize| labels[i] != NONE && mem.contains(&(labels[i] as usize));
+    // Unlabelled cells (edge bands, noise, holes) are unknown: neither for nor against;
+    // support cells are background seen inside the silhouette: against.
+    let unknown = |i: usize| labels[i] == NONE && !on_support[i];
+    score_faces(g, all, &faces, &normals, fit, &member, &unknown, cfg)
+}
+
+/// Cuboid fit and box-likeness of up to three faces (`faces[k]`: the cells of the face with
+/// plane normal `normals[k]`, the largest first), given the plane `fit` (0..1) of their cells.
+/// `member(i)`: cell `i` belongs to the candidate; `unknown(i)`: a non-member cell that counts
+/// neither for nor against the silhouette. `None` when rejected.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn score_faces(
+    g: &Grid,
+    all: Vec<u32>,
+    faces: &[&[u32]],
+    normals: &[Vector3<f64>],
+    fit: f64,
+    member: &dyn Fn(usize) -> bool,
+    unknown: &dyn Fn(usize) -> bool,
+    cfg: &DetectConfig,
+) -> Option<Raw> {
+    if all.len() < cfg.min_face_cells as usize || faces.is_empty() || faces.len() > 3 {
         return None;
     }
+    let n_faces = faces.len();
     let pts: Vec<Vector3<f64>> = all.iter().map(|&i| v3(&g.p[i as usize])).collect();
     // Axes from the face normals.
-    let normals: Vec<Vector3<f64>> = mem.iter().map(|&f| regions[f].normal).collect();
     let axes: [Vector3<f64>; 3] = match normals.len() {
         3 => {
             let m = Matrix3::from_columns(&[normals[0], normals[1], normals[2]]);
@@ -662,19 +708,19 @@ fn score_group(
     let mut vals = Vec::with_capacity(pts.len());
     // A lone face is judged by how well a rectangle covers it: measure it out to its edges
     // (robust quantiles would cut a disc's rim and flatter it).
-    let q = if mem.len() == 1 {
+    let q = if n_faces == 1 {
         cfg.extent_quantile.min(0.005)
     } else {
         cfg.extent_quantile
     };
     for (k, ax) in axes.iter().enumerate() {
-        let (lo, hi) = if mem.len() > 1 && cfg.per_face_extents {
+        let (lo, hi) = if n_faces > 1 && cfg.per_face_extents {
             // Union of each face's robust range: a narrow side face (a few per cent of the
             // points) still spans the box's depth, which quantiles over all points would cut.
             let mut r = (f64::INFINITY, f64::NEG_INFINITY);
-            for &f in mem {
+            for face in faces {
                 vals.clear();
-                vals.extend(cells[f].iter().map(|&i| v3(&g.p[i as usize]).dot(ax)));
+                vals.extend(face.iter().map(|&i| v3(&g.p[i as usize]).dot(ax)));
                 let (a, b) = robust_range(&mut vals, q);
                 r = (r.0.min(a), r.1.max(b));
             }
@@ -684,7 +730,7 @@ fn score_group(
             vals.extend(pts.iter().map(|p| p.dot(ax)));
             robust_range(&mut vals, q)
         };
-        let (lo, hi) = if mem.len() == 1 && k == 0 {
+        let (lo, hi) = if n_faces == 1 && k == 0 {
             // A single face: its thickness is unseen; the silhouette test uses the face itself.
             let mid = (lo + hi) / 2.0;
             (mid - 0.5, mid + 0.5)
@@ -695,7 +741,7 @@ fn score_group(
         centre += ax * ((lo + hi) / 2.0);
     }
     // Observed dimensions: every axis for two or three faces, the two in-plane axes for one.
-    let observed: Vec<f64> = if mem.len() == 1 {
+    let observed: Vec<f64> = if n_faces == 1 {
         vec![size[1], size[2]]
     } else {
         vec![size[0], size[1], size[2]]
@@ -706,7 +752,7 @@ fn score_group(
     if max_dim > cfg.max_box_extent_mm || min_dim < cfg.min_box_extent_mm {
         if dbg && all.len() > 300 {
             eprintln!(
-                "group {mem:?} n {} rejected size {max_dim:.0} {min_dim:.0}",
+                "group of {n_faces} n {} rejected size {max_dim:.0} {min_dim:.0}",
                 all.len()
             );
         }
@@ -721,17 +767,10 @@ fn score_group(
         center_mm: centre,
         size_mm: size,
     };
-    // Plane fit.
-    let fit = mem
-        .iter()
-        .map(|&f| regions[f].inlier_frac * regions[f].n as f64)
-        .sum::<f64>()
-        / mem.iter().map(|&f| regions[f].n as f64).sum::<f64>();
     // Silhouette IoU and depth consistency inside the hull.
     let hull = silhouette_hull_px(&bx, &g.k)?;
     let (w, h) = (g.w, g.h);
     let inside = rasterize_convex_polygon(&hull, w as u32, h as u32);
-    let member = |i: usize| labels[i] != NONE && mem.contains(&(labels[i] as usize));
     let mut inter = 0usize;
     let mut hull_n = 0usize;
     let mut see_through = 0usize;
@@ -745,9 +784,7 @@ fn score_group(
             inter += 1;
             continue;
         }
-        // Unlabelled cells (edge bands, noise, holes) are unknown: neither for nor against;
-        // support cells are background seen inside the silhouette: against.
-        if labels[i] == NONE && !on_support[i] {
+        if unknown(i) {
             continue;
         }
         hull_n += 1;
@@ -768,19 +805,19 @@ fn score_group(
     let iou = inter as f64 / union.max(1) as f64;
     let depth_ok = 1.0 - see_through as f64 / hull_n.max(1) as f64;
     let _ = checked;
-    let faces_factor = match mem.len() {
+    let faces_factor = match n_faces {
         1 => cfg.one_face_factor,
         2 => cfg.two_face_factor,
         _ => 1.0,
     };
     let score = (fit * iou * depth_ok * faces_factor).clamp(0.0, 1.0);
     // A lone face must look like a rectangle: a disc (a cylinder's cap) covers π/4 of its box.
-    if mem.len() == 1 && iou < cfg.min_one_face_iou {
+    if n_faces == 1 && iou < cfg.min_one_face_iou {
         return None;
     }
     if dbg && all.len() > 300 {
         eprintln!(
-            "group {mem:?} n {} size {:.0} {:.0} {:.0} fit {fit:.2} iou {iou:.2} depth {depth_ok:.2} score {score:.2}",
+            "group of {n_faces} n {} size {:.0} {:.0} {:.0} fit {fit:.2} iou {iou:.2} depth {depth_ok:.2} score {score:.2}",
             all.len(),
             size[0],
             size[1],
@@ -790,12 +827,12 @@ fn score_group(
     if score < cfg.min_score {
         return None;
     }
-    let big = mem.iter().copied().max_by_key(|&f| regions[f].n)?;
+    let big = (0..n_faces).max_by_key(|&k| faces[k].len())?;
     Some(Raw {
         cells: all,
         score,
-        n_faces: mem.len() as u8,
+        n_faces: n_faces as u8,
         bx,
-        normal: regions[big].normal,
+        normal: normals[big],
     })
 }

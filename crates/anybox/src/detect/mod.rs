@@ -13,17 +13,26 @@
 //! 3. [`boxes`]: support planes (floor, table, shelf boards, walls) removed; up to three mutually
 //!    perpendicular faces sharing a convex edge grouped into one box; curved (sphere, cylinder),
 //!    irregular, too small and too large segments rejected; a cuboid fitted per group and scored
-//!    by plane fit × silhouette IoU × depth consistency (the paper's filter).
+//!    by plane fit × silhouette IoU × depth consistency (the paper's filter);
+//! 4. [`blobs`]: the same cuboid fit and score for every connected convex object (depth
+//!    continuity, cut at concave creases and at steps between touching boxes), which finds
+//!    isolated boxes whose faces the grouping could not tie together.
+//!
+//! Object-, surface- and colour-level candidates then compete by score; a coarse candidate with
+//! a seam between coplanar colour patches (flush cartons) gives way to the finer ones. Output
+//! masks keep, per pixel, only the front surface of their grid cell.
 //!
 //! Every threshold is a documented field of [`DetectConfig`] (`Config::detect`). The detector is
 //! deterministic: the same input and config give the same detections in the same order.
 
+mod blobs;
 mod boxes;
 mod grid;
 mod regions;
 
 use anybox_geom::Intrinsics;
 use anybox_io::{DepthMap, Mask, RgbImage};
+use regions::Cues;
 use serde::{Deserialize, Serialize};
 
 /// Every threshold of the detector. Defaults were tuned on the generated benchmark
@@ -176,6 +185,35 @@ pub struct DetectConfig {
     /// A candidate is dropped when more than this fraction of its cells belongs to a better
     /// one. Default 0.3.
     pub max_overlap: f64,
+    /// Object-level candidates: every connected object left after support removal (cells
+    /// joined by depth continuity alone) is also tried as one box (see `blobs`). Default true.
+    pub blobs: bool,
+    /// Objects are also cut at concave creases (where a box meets another box or anything
+    /// else; a box's own edges are convex). Default true.
+    pub blob_split_concave: bool,
+    /// An object is cut in two where one face direction holds two parallel planes further
+    /// apart than this multiple of the plane tolerance (a step between touching boxes), along
+    /// the box axis that separates them; 0 disables. Default 4.
+    pub blob_step_factor: f64,
+    /// ... when each plane holds at least this fraction of the face's cells. Default 0.15.
+    pub blob_step_min_fraction: f64,
+    /// At most this many successive step cuts per object. Default 6.
+    pub blob_max_cuts: u32,
+    /// Cells within this multiple of the plane tolerance of a support plane are cut off
+    /// objects (so a box does not join the table at its foot). Default 1.5.
+    pub blob_support_gap_factor: f64,
+    /// An object's cell belongs to a face when its normal is within this angle of the face's
+    /// axis, degrees. Default 20.
+    pub blob_normal_tol_deg: f64,
+    /// An object's second and third faces need at least this fraction of its cells (and
+    /// `min_face_cells`). Default 0.05.
+    pub blob_min_face_fraction: f64,
+    /// An object is a box candidate when at least this fraction of its cells lies on one of
+    /// its face planes. Default 0.85.
+    pub blob_min_fit: f64,
+    /// ... and at least this fraction of its cell normals agrees with a face (normals blur
+    /// over a few cells at every fold, so small boxes agree less). Default 0.6.
+    pub blob_min_agree: f64,
 }
 
 impl Default for DetectConfig {
@@ -206,7 +244,7 @@ impl Default for DetectConfig {
             support_side_margin_mm: 30.0,
             support_min_front_fraction: 0.05,
             support_max_behind_fraction: 0.02,
-            support_up_from_standing: false,
+            support_up_from_standing: true,
             support_ransac_planes: 3,
             support_ransac_iters: 150,
             support_normal_tol_deg: 20.0,
@@ -232,6 +270,16 @@ impl Default for DetectConfig {
             split_seam_reach_cells: 3,
             split_min_fraction: 0.03,
             max_overlap: 0.3,
+            blobs: true,
+            blob_split_concave: true,
+            blob_max_cuts: 6,
+            blob_step_factor: 4.0,
+            blob_step_min_fraction: 0.15,
+            blob_support_gap_factor: 1.5,
+            blob_normal_tol_deg: 20.0,
+            blob_min_face_fraction: 0.05,
+            blob_min_fit: 0.85,
+            blob_min_agree: 0.6,
         }
     }
 }
@@ -309,22 +357,33 @@ pub fn detect_boxes(
     let joins = regions::joins(&g, rgb.is_some(), &g.seam, cfg);
     // Two levels: smooth surfaces regardless of colour (a box face with its tape, labels and
     // print), and colour-uniform patches (which separate flush cartons).
-    let (geo_labels, surfaces) = regions::segment(&g, &joins, true, None, cfg);
+    let (geo_labels, surfaces) = regions::segment(&g, &joins, Cues::Geometry, None, cfg);
     let (on_support, planes) = boxes::support_mask(&g, &geo_labels, &surfaces, cfg);
     // Segment again without the support cells: what leaked into a support becomes its own.
-    let (geo_labels, surfaces) = regions::segment(&g, &joins, true, Some(&on_support), cfg);
-    let (mut col_labels, patches) = regions::segment(&g, &joins, false, Some(&on_support), cfg);
+    let (geo_labels, surfaces) =
+        regions::segment(&g, &joins, Cues::Geometry, Some(&on_support), cfg);
+    let (mut col_labels, patches) = regions::segment(&g, &joins, Cues::All, Some(&on_support), cfg);
     let n_patches = regions::bridge_tape(&g, &mut col_labels, &patches, cfg);
     let patches = regions::fit_regions(&g, &col_labels, n_patches, cfg);
     let geo = boxes::group_candidates(&g, &geo_labels, &surfaces, &on_support, cfg);
     let geo = boxes::drop_support_fragments(&g, geo, &planes, cfg);
     let col = boxes::group_candidates(&g, &col_labels, &patches, &on_support, cfg);
     let col = boxes::drop_support_fragments(&g, col, &planes, cfg);
-    let chosen = select(&g, geo, col, cfg);
+    let (obj_labels, off, n_obj) = object_labels(&g, &joins, &on_support, &planes, cfg);
+    let objects = if cfg.blobs {
+        let c = blobs::blob_candidates(&g, &obj_labels, n_obj, &off, cfg);
+        boxes::drop_support_fragments(&g, c, &planes, cfg)
+    } else {
+        Vec::new()
+    };
+    let chosen = select(&g, objects, geo, col, cfg);
+    // Cells on or next to a support are never filled in: at a box's foot they lie inside its
+    // silhouette at about its depth, and the estimator would take them for the box.
     let mut claimed: Vec<bool> = geo_labels
         .iter()
         .zip(&col_labels)
-        .map(|(&a, &b)| a != regions::NONE || b != regions::NONE)
+        .zip(&off)
+        .map(|((&a, &b), &o)| a != regions::NONE || b != regions::NONE || o)
         .collect();
     let cands = boxes::fill(&g, chosen, &mut claimed, cfg);
     let step = g.step;
@@ -335,9 +394,16 @@ pub fn detect_boxes(
             let mut mask = Mask::empty(w, h);
             for &cell in &c.cells {
                 let (gu, gv) = (cell as usize % g.w, cell as usize / g.w);
+                // A cell keeps its front surface; pixels of the cell well behind it are the
+                // background seen past the box's rim, which the estimator would take for box.
+                let z_cell = g.z[cell as usize];
+                let far = z_cell + grid::jump_tol(cfg, z_cell);
                 for v in gv * step..((gv + 1) * step).min(fh) {
                     for u in gu * step..((gu + 1) * step).min(fw) {
-                        mask.data[v * fw + u] = true;
+                        let z = depth.depth_mm[v * fw + u];
+                        if z_cell <= 0.0 || !(z > 0.0 && z > far) {
+                            mask.data[v * fw + u] = true;
+                        }
                     }
                 }
             }
@@ -351,23 +417,49 @@ pub fn detect_boxes(
     Ok(out)
 }
 
+/// Connected objects (cells joined by depth continuity alone) once supports are removed:
+/// labels per cell, the cells excluded (support cells, and every cell near a support plane:
+/// cells at a box's foot have blurred normals and would join it to the table around it), and
+/// the number of objects.
+fn object_labels(
+    g: &grid::Grid,
+    joins: &regions::Joins,
+    on_support: &[bool],
+    planes: &[regions::Region],
+    cfg: &DetectConfig,
+) -> (Vec<u32>, Vec<bool>, usize) {
+    let off: Vec<bool> = (0..g.z.len())
+        .map(|i| {
+            on_support[i]
+                || (g.z[i] > 0.0
+                    && planes.iter().any(|pl| {
+                        pl.dist(&g.p[i]).abs()
+                            <= cfg.blob_support_gap_factor * regions::plane_tol(cfg, g.z[i] as f64)
+                    }))
+        })
+        .collect();
+    let (labels, objs) = regions::segment(g, joins, Cues::Depth, Some(&off), cfg);
+    (labels, off, objs.len())
+}
+
 /// Diagnostic view of the detector's first stages: per-pixel labels (row-major, frame size,
-/// `u32::MAX` = unlabelled or support) of the smooth surfaces and of the colour-uniform
-/// patches, after support-plane removal, plus per-pixel support and seam flags. For overlays
-/// and tuning; [`detect_boxes`] validates the same way.
+/// `u32::MAX` = unlabelled or support) of the smooth surfaces, of the colour-uniform patches
+/// and of the connected objects, after support-plane removal, plus per-pixel support and seam
+/// flags. For overlays and tuning; [`detect_boxes`] validates the same way.
 pub fn segment_labels(
     rgb: Option<&RgbImage>,
     depth: &DepthMap,
     intrinsics: &Intrinsics,
     cfg: &DetectConfig,
-) -> Result<[Vec<u32>; 4], DetectError> {
+) -> Result<[Vec<u32>; 5], DetectError> {
     validate(rgb, depth, intrinsics)?;
     let g = grid::Grid::build(rgb, depth, intrinsics, cfg);
     let joins = regions::joins(&g, rgb.is_some(), &g.seam, cfg);
-    let (geo_labels, surfaces) = regions::segment(&g, &joins, true, None, cfg);
-    let (on_support, _) = boxes::support_mask(&g, &geo_labels, &surfaces, cfg);
-    let (geo_labels, _) = regions::segment(&g, &joins, true, Some(&on_support), cfg);
-    let (col_labels, _) = regions::segment(&g, &joins, false, Some(&on_support), cfg);
+    let (geo_labels, surfaces) = regions::segment(&g, &joins, Cues::Geometry, None, cfg);
+    let (on_support, planes) = boxes::support_mask(&g, &geo_labels, &surfaces, cfg);
+    let (geo_labels, _) = regions::segment(&g, &joins, Cues::Geometry, Some(&on_support), cfg);
+    let (obj_labels, _, _) = object_labels(&g, &joins, &on_support, &planes, cfg);
+    let (col_labels, _) = regions::segment(&g, &joins, Cues::All, Some(&on_support), cfg);
     let sup: Vec<u32> = on_support.iter().map(|&b| b as u32).collect();
     let seam: Vec<u32> = g.seam.iter().map(|&b| b as u32).collect();
     let (fw, fh) = (depth.width as usize, depth.height as usize);
@@ -380,7 +472,13 @@ pub fn segment_labels(
         }
         out
     };
-    Ok([up(&geo_labels), up(&col_labels), up(&sup), up(&seam)])
+    Ok([
+        up(&geo_labels),
+        up(&col_labels),
+        up(&obj_labels),
+        up(&sup),
+        up(&seam),
+    ])
 }
 
 fn validate(
@@ -469,24 +567,24 @@ fn flap_seam(g: &grid::Grid, cells: &[u32], seam: &[usize], top: &nalgebra::Vect
     near >= 6 && near_seam * 10 <= near
 }
 
-/// Chooses between the surface-level and the colour-level candidates, then suppresses
-/// overlaps. A surface-level candidate stands unless a seam (thin dark line) runs between two
-/// of its colour-level candidates (each `split_min_fraction` of it) with coplanar faces — then
-/// it is several cartons with flush faces, and those replace it.
-fn select(
+/// Which coarse candidates (objects or surfaces) are several cartons with flush faces: a seam
+/// (thin dark line) runs between two of the colour-level candidates inside it (each
+/// `split_min_fraction` of it) whose faces are coplanar. Returns, per coarse candidate, whether
+/// it splits and the colour-level candidates inside it (≥ 80 % of their cells), and the
+/// colour-level candidates inside none.
+fn split_evidence(
     g: &grid::Grid,
-    geo: Vec<boxes::Raw>,
-    col: Vec<boxes::Raw>,
+    coarse: &[boxes::Raw],
+    col: &[boxes::Raw],
     cfg: &DetectConfig,
-) -> Vec<boxes::Raw> {
+) -> (Vec<bool>, Vec<Vec<usize>>, Vec<usize>) {
     let mut owner = vec![u32::MAX; g.z.len()];
-    for (k, c) in geo.iter().enumerate() {
+    for (k, c) in coarse.iter().enumerate() {
         for &i in &c.cells {
             owner[i as usize] = k as u32;
         }
     }
-    // Colour candidates inside each surface candidate.
-    let mut inside: Vec<Vec<usize>> = vec![Vec::new(); geo.len()];
+    let mut inside: Vec<Vec<usize>> = vec![Vec::new(); coarse.len()];
     let mut free: Vec<usize> = Vec::new();
     for (k, c) in col.iter().enumerate() {
         let mut counts: std::collections::BTreeMap<u32, usize> = Default::default();
@@ -503,8 +601,6 @@ fn select(
             _ => free.push(k),
         }
     }
-    let mut take_col = vec![false; col.len()];
-    let mut out_geo = vec![true; geo.len()];
     let mut col_owner = vec![u32::MAX; g.z.len()];
     for (k, c) in col.iter().enumerate() {
         for &i in &c.cells {
@@ -514,7 +610,8 @@ fn select(
     let cos_par = cfg.perpendicular_tol_deg.to_radians().cos();
     let reach = cfg.split_seam_reach_cells as isize;
     let (w, h) = (g.w as isize, g.h as isize);
-    for (k, gc) in geo.iter().enumerate() {
+    let mut split = vec![false; coarse.len()];
+    for (k, gc) in coarse.iter().enumerate() {
         let big: Vec<usize> = inside[k]
             .iter()
             .copied()
@@ -558,11 +655,31 @@ fn select(
                 }
             }
         }
-        if between.iter().any(|(&(a, _), seam)| {
+        split[k] = between.iter().any(|(&(a, _), seam)| {
             seam.len() >= cfg.split_min_seam_cells as usize
                 && !(cfg.split_flap_check && flap_seam(g, &gc.cells, seam, &col[a].normal))
-        }) {
-            out_geo[k] = false;
+        });
+    }
+    (split, inside, free)
+}
+
+/// Chooses among the object-level, surface-level and colour-level candidates, then suppresses
+/// overlaps. An object or surface candidate stands unless [`split_evidence`] shows it is
+/// several cartons with flush faces; a split surface is replaced by its colour-level
+/// candidates, a split object is dropped (its surfaces and patches remain). What is left
+/// competes by score.
+fn select(
+    g: &grid::Grid,
+    objects: Vec<boxes::Raw>,
+    geo: Vec<boxes::Raw>,
+    col: Vec<boxes::Raw>,
+    cfg: &DetectConfig,
+) -> Vec<boxes::Raw> {
+    let (obj_split, _, _) = split_evidence(g, &objects, &col, cfg);
+    let (geo_split, inside, free) = split_evidence(g, &geo, &col, cfg);
+    let mut take_col = vec![false; col.len()];
+    for (k, &s) in geo_split.iter().enumerate() {
+        if s {
             for &c in &inside[k] {
                 take_col[c] = true;
             }
@@ -571,24 +688,46 @@ fn select(
     for k in free {
         take_col[k] = true;
     }
-    let mut all: Vec<boxes::Raw> = Vec::new();
+    let mut all: Vec<(boxes::Raw, char)> = Vec::new();
+    for (k, c) in objects.into_iter().enumerate() {
+        if !obj_split[k] {
+            all.push((c, 'o'));
+        }
+    }
     for (k, c) in geo.into_iter().enumerate() {
-        if out_geo[k] {
-            all.push(c);
+        if !geo_split[k] {
+            all.push((c, 's'));
         }
     }
     for (k, c) in col.into_iter().enumerate() {
         if take_col[k] {
-            all.push(c);
+            all.push((c, 'p'));
         }
     }
-    all.sort_by(|a, b| b.score.total_cmp(&a.score));
+    all.sort_by(|a, b| b.0.score.total_cmp(&a.0.score));
+    let dbg = std::env::var("DETECT_DEBUG").is_ok();
     let mut taken = vec![false; g.z.len()];
     let mut out = Vec::new();
-    for c in all {
+    for (c, src) in all {
         let overlap = c.cells.iter().filter(|&&i| taken[i as usize]).count();
         if overlap as f64 > cfg.max_overlap * c.cells.len() as f64 {
             continue;
+        }
+        if dbg {
+            let (mut u0, mut v0, mut u1, mut v1) = (usize::MAX, usize::MAX, 0, 0);
+            for &i in &c.cells {
+                let (u, v) = (i as usize % g.w * g.step, i as usize / g.w * g.step);
+                (u0, v0, u1, v1) = (u0.min(u), v0.min(v), u1.max(u), v1.max(v));
+            }
+            eprintln!(
+                "select {src} score {:.3} faces {} cells {} bbox ({u0}, {v0}, {u1}, {v1}) size {:.0} {:.0} {:.0}",
+                c.score,
+                c.n_faces,
+                c.cells.len(),
+                c.bx.size_mm.x,
+                c.bx.size_mm.y,
+                c.bx.size_mm.z
+            );
         }
         for &i in &c.cells {
             taken[i as usize] = true;

@@ -100,11 +100,25 @@ fn col_dist2(a: &[f32; 3], b: &[f32; 3]) -> f32 {
     d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
 }
 
-/// Which 4-neighbour pairs join: bit 0 = right neighbour, bit 1 = down neighbour; for the
-/// geometric cues only (`geo`) and for all cues (`all`).
+/// Which 4-neighbour pairs join: bit 0 = right neighbour, bit 1 = down neighbour; for depth
+/// continuity only (`depth`), for the geometric cues (`geo`: depth and normals) and for all
+/// cues (`all`).
 pub(crate) struct Joins {
+    depth: Vec<u8>,
     geo: Vec<u8>,
     all: Vec<u8>,
+}
+
+/// Which cues cut regions in [`segment`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Cues {
+    /// Depth jumps and concave creases: connected convex objects ("blobs"), whatever their
+    /// convex folds and colours.
+    Depth,
+    /// Depth jumps and normal changes: smooth surfaces regardless of colour.
+    Geometry,
+    /// Depth, normals, colour and seams: colour-uniform patches.
+    All,
 }
 
 /// Decides for every pair of 4-neighbouring cells whether they lie on one smooth surface
@@ -124,9 +138,9 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
                  j: usize,
                  back: &dyn Fn(usize) -> Option<usize>,
                  fwd: &dyn Fn(usize) -> Option<usize>|
-     -> (bool, bool) {
+     -> (bool, bool, bool) {
         if !same(i, j) {
-            return (false, false);
+            return (false, false, false);
         }
         // Flying pixels (depth mixed between a near and a far surface) would bridge the jump
         // one small step at a time: also test the cells one outside the pair.
@@ -135,7 +149,7 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
                 && g.z[b] > 0.0
                 && (g.z[a] - g.z[b]).abs() > 1.5 * jump_tol(cfg, g.z[a].min(g.z[b]))
             {
-                return (false, false);
+                return (false, false, false);
             }
         }
         // Normals compared r cells outside the pair, staying on the surface.
@@ -155,20 +169,29 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
         let (na, nb) = (&g.n[a], &g.n[b]);
         let known = dot(na, na) > 0.5 && dot(nb, nb) > 0.5;
         if known && dot(na, nb) < cos_n {
-            return (false, false);
+            // A crease. Objects join across convex creases (a box's own edges) and split at
+            // concave ones (where two boxes, or a box and anything else, meet):
+            // (n_a − n_b)·(p_a − p_b) > 0 for a convex fold with normals facing the camera.
+            let (pa, pb) = (&g.p[a], &g.p[b]);
+            let conv = (na[0] - nb[0]) * (pa[0] - pb[0])
+                + (na[1] - nb[1]) * (pa[1] - pb[1])
+                + (na[2] - nb[2]) * (pa[2] - pb[2]);
+            let convex = !cfg.blob_split_concave || conv > 0.0;
+            return (convex, false, false);
         }
         if seam[i] || seam[j] {
-            return (true, false);
+            return (true, true, false);
         }
         if has_rgb {
             let a1 = back(i).filter(|&x| g.z[x] > 0.0).unwrap_or(i);
             let b1 = fwd(j).filter(|&x| g.z[x] > 0.0).unwrap_or(j);
             if col_dist2(&g.c[a1], &g.c[b1]) > col2 {
-                return (true, false);
+                return (true, true, false);
             }
         }
-        (true, true)
+        (true, true, true)
     };
+    let mut depth = vec![0u8; w * h];
     let mut geo = vec![0u8; w * h];
     let mut all = vec![0u8; w * h];
     for v in 0..h {
@@ -180,38 +203,39 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
             if u + 1 < w {
                 let back = |x: usize| (x % w > 0).then(|| x - 1);
                 let fwd = |x: usize| (x % w + 1 < w).then(|| x + 1);
-                let (a, b) = judge(i, i + 1, &back, &fwd);
+                let (d, a, b) = judge(i, i + 1, &back, &fwd);
+                depth[i] |= d as u8;
                 geo[i] |= a as u8;
                 all[i] |= b as u8;
             }
             if v + 1 < h {
                 let back = |x: usize| (x >= w).then(|| x - w);
                 let fwd = |x: usize| (x + w < w * h).then(|| x + w);
-                let (a, b) = judge(i, i + w, &back, &fwd);
+                let (d, a, b) = judge(i, i + w, &back, &fwd);
+                depth[i] |= (d as u8) << 1;
                 geo[i] |= (a as u8) << 1;
                 all[i] |= (b as u8) << 1;
             }
         }
     }
-    Joins { geo, all }
+    Joins { depth, geo, all }
 }
 
-/// Labels every grid cell with a region index (or [`NONE`]) by union-find over the joins
-/// (`geometric_only`: surfaces regardless of colour; `exclude`d cells stay unlabelled and join
-/// nothing) and fits the regions' planes. Regions
-/// smaller than `min_region_cells` are dropped.
+/// Labels every grid cell with a region index (or [`NONE`]) by union-find over the joins of
+/// the given `cues` (`exclude`d cells stay unlabelled and join nothing) and fits the regions'
+/// planes. Regions smaller than `min_region_cells` are dropped.
 pub(crate) fn segment(
     g: &Grid,
     joins: &Joins,
-    geometric_only: bool,
+    cues: Cues,
     exclude: Option<&[bool]>,
     cfg: &DetectConfig,
 ) -> (Vec<u32>, Vec<Region>) {
     let (w, h) = (g.w, g.h);
-    let bits = if geometric_only {
-        &joins.geo
-    } else {
-        &joins.all
+    let bits = match cues {
+        Cues::Depth => &joins.depth,
+        Cues::Geometry => &joins.geo,
+        Cues::All => &joins.all,
     };
     let out = |i: usize| exclude.is_some_and(|e| e[i]);
     let mut dsu = Dsu::new(w * h);

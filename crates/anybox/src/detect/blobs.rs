@@ -1,0 +1,361 @@
+//! Object-level candidates: each connected object left after support removal (cells joined
+//! by depth continuity and convex creases, cut at concave ones) is hypothesised to be one box.
+//!
+//! Face grouping ([`super::boxes::group_candidates`]) has to prove that two patches share a
+//! convex edge, which fails on small, far or noisy boxes whose edge bands are wide; an isolated
+//! box is, however, simply a connected convex object that a cuboid fits. Per object: the
+//! dominant normal direction, the dominant one perpendicular to it and their cross product give
+//! the axes; cells are assigned to the face whose normal they agree with; the cuboid and the
+//! score are those of a face group ([`super::boxes::score_faces`]). An object whose face
+//! direction holds two parallel planes (touching boxes of different heights joined through a
+//! flush side) is cut along the axis that separates them, recursively. Objects that fit a
+//! cuboid badly (`blob_min_fit`, `blob_min_agree`) or whose faces bend (`max_bend_deg`: a
+//! cylinder's side) are dropped; flush cartons that fit one cuboid are split in `select` by
+//! their seams, as surfaces are.
+
+use nalgebra::Vector3;
+
+use super::boxes::{score_faces, Raw};
+use super::grid::Grid;
+use super::regions::{plane_tol, NONE};
+use super::DetectConfig;
+
+fn v3(p: &[f32; 3]) -> Vector3<f64> {
+    Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+}
+
+/// The direction (unit, facing the camera) most cell normals agree with within `cos_tol`,
+/// among `cands` of them; returns it (refined as the mean of its inliers) and the inlier count.
+fn dominant(
+    normals: &[Vector3<f64>],
+    cands: &[usize],
+    cos_tol: f64,
+) -> Option<(Vector3<f64>, usize)> {
+    let mut best: Option<(usize, usize)> = None;
+    for &c in cands {
+        let d = normals[c];
+        let n = normals.iter().filter(|m| m.dot(&d) >= cos_tol).count();
+        if best.is_none_or(|b| n > b.1) {
+            best = Some((c, n));
+        }
+    }
+    let (c, n) = best?;
+    let d = normals[c];
+    let mean: Vector3<f64> = normals.iter().filter(|m| m.dot(&d) >= cos_tol).sum();
+    Some((mean.try_normalize(1e-9)?, n))
+}
+
+/// Candidates of evenly spread indices (at most `k`) of the items passing `keep`.
+fn spread(n: usize, k: usize, keep: impl Fn(usize) -> bool) -> Vec<usize> {
+    let idx: Vec<usize> = (0..n).filter(|&i| keep(i)).collect();
+    let stride = idx.len().div_ceil(k.max(1)).max(1);
+    idx.into_iter().step_by(stride).collect()
+}
+
+/// An object's box frame: axes (the dominant face normal first, each facing the camera), the
+/// cells assigned to each axis's face, and how well the cells fit those face planes.
+struct Frame {
+    axes: Vec<Vector3<f64>>,
+    faces: Vec<Vec<u32>>,
+    /// Fraction of the cells within the plane tolerance of a face plane.
+    fit: f64,
+    /// Fraction of the cells with a normal whose normal agrees with a face.
+    agree: f64,
+    /// The largest bend of a face: the angle between the mean normals of its two halves,
+    /// split at the median along either in-plane axis, degrees (a cylinder's side bends, a
+    /// box face does not).
+    bend_deg: f64,
+}
+
+fn frame_of(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<Frame> {
+    let cos_tol = cfg.blob_normal_tol_deg.to_radians().cos();
+    let sin_perp = cfg.perpendicular_tol_deg.to_radians().sin();
+    let valid: Vec<u32> = cells
+        .iter()
+        .copied()
+        .filter(|&i| {
+            let n = g.n[i as usize];
+            n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 0.5
+        })
+        .collect();
+    let normals: Vec<Vector3<f64>> = valid.iter().map(|&i| v3(&g.n[i as usize])).collect();
+    let min_face = (cfg.min_face_cells as usize)
+        .max((cfg.blob_min_face_fraction * cells.len() as f64) as usize);
+    let cands = spread(normals.len(), 48, |_| true);
+    let (a, na) = dominant(&normals, &cands, cos_tol)?;
+    if na < min_face {
+        return None;
+    }
+    let perp = spread(normals.len(), 48, |k| normals[k].dot(&a).abs() <= sin_perp);
+    let mut axes = vec![a];
+    if let Some((b0, nb)) = dominant(&normals, &perp, cos_tol) {
+        if nb >= min_face {
+            if let Some(bn) = (b0 - a * a.dot(&b0)).try_normalize(1e-9) {
+                axes.push(bn);
+                // The third face, if seen: the cross product, turned towards the camera.
+                let c = a.cross(&bn);
+                let nc = normals
+                    .iter()
+                    .filter(|m| m.dot(&c).abs() >= cos_tol)
+                    .count();
+                if nc >= min_face {
+                    let toward: f64 = normals.iter().map(|m| m.dot(&c)).sum();
+                    axes.push(if toward >= 0.0 { c } else { -c });
+                }
+            }
+        }
+    }
+    // Assign cells to faces by normal.
+    let mut faces: Vec<Vec<u32>> = vec![Vec::new(); axes.len()];
+    for (k, m) in normals.iter().enumerate() {
+        let best = axes
+            .iter()
+            .enumerate()
+            .map(|(f, ax)| (f, m.dot(ax)))
+            .max_by(|x, y| x.1.total_cmp(&y.1));
+        if let Some((f, d)) = best {
+            if d >= cos_tol {
+                faces[f].push(valid[k]);
+            }
+        }
+    }
+    // Plane fit: cells within the plane tolerance of their nearest face plane (each face
+    // plane at the median offset of its cells).
+    let offsets: Vec<f64> = faces
+        .iter()
+        .zip(&axes)
+        .map(|(f, ax)| {
+            let mut d: Vec<f64> = f.iter().map(|&i| v3(&g.p[i as usize]).dot(ax)).collect();
+            if d.is_empty() {
+                return 0.0;
+            }
+            let mid = d.len() / 2;
+            *d.select_nth_unstable_by(mid, |x, y| x.total_cmp(y)).1
+        })
+        .collect();
+    let on_plane = cells
+        .iter()
+        .filter(|&&i| {
+            let p = v3(&g.p[i as usize]);
+            let tol = plane_tol(cfg, g.z[i as usize] as f64);
+            axes.iter()
+                .zip(&offsets)
+                .any(|(ax, &o)| (p.dot(ax) - o).abs() <= tol)
+        })
+        .count();
+    let assigned: usize = faces.iter().map(Vec::len).sum();
+    let full: [Vector3<f64>; 3] = match axes.len() {
+        1 => {
+            let t = if a.x.abs() < 0.9 {
+                Vector3::x()
+            } else {
+                Vector3::y()
+            };
+            let b = a.cross(&t).normalize();
+            [a, b, a.cross(&b)]
+        }
+        _ => [axes[0], axes[1], axes[0].cross(&axes[1])],
+    };
+    let mut bend_deg = 0.0f64;
+    for (f, face) in faces.iter().enumerate() {
+        if face.len() < 2 * cfg.min_face_cells as usize {
+            continue;
+        }
+        for (k, e) in full.iter().enumerate() {
+            if k == f || e.dot(&axes[f]).abs() > 0.5 {
+                continue;
+            }
+            let mut t: Vec<(f64, u32)> = face
+                .iter()
+                .map(|&i| (v3(&g.p[i as usize]).dot(e), i))
+                .collect();
+            let mid = t.len() / 2;
+            t.select_nth_unstable_by(mid, |x, y| x.0.total_cmp(&y.0));
+            let mean = |cells: &[(f64, u32)]| -> Vector3<f64> {
+                cells.iter().map(|c| v3(&g.n[c.1 as usize])).sum()
+            };
+            let (m0, m1) = (mean(&t[..mid]), mean(&t[mid..]));
+            if let (Some(m0), Some(m1)) = (m0.try_normalize(1e-9), m1.try_normalize(1e-9)) {
+                bend_deg = bend_deg.max(m0.dot(&m1).clamp(-1.0, 1.0).acos().to_degrees());
+            }
+        }
+    }
+    Some(Frame {
+        axes,
+        faces,
+        fit: on_plane as f64 / cells.len().max(1) as f64,
+        agree: assigned as f64 / valid.len().max(1) as f64,
+        bend_deg,
+    })
+}
+
+/// A step between two parallel planes of one face direction (the tops of two touching boxes
+/// of different heights, the fronts of two cartons set back from each other): the object is
+/// several boxes. Returns the cut {p·e = s0} along another box axis that separates the two
+/// planes' cells (the riser between them), if one does.
+fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<(Vector3<f64>, f64)> {
+    if cfg.blob_step_factor <= 0.0 {
+        return None;
+    }
+    let min_cells = cfg.min_face_cells as usize;
+    let mut best: Option<(f64, Vector3<f64>, f64)> = None;
+    for (k, face) in fr.faces.iter().enumerate() {
+        if face.len() < 2 * min_cells {
+            continue;
+        }
+        let ax = &fr.axes[k];
+        let mut t: Vec<(f64, u32)> = face
+            .iter()
+            .map(|&i| (v3(&g.p[i as usize]).dot(ax), i))
+            .collect();
+        t.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let zmed = g.z[t[t.len() / 2].1 as usize] as f64;
+        let gap_tol = cfg.blob_step_factor * plane_tol(cfg, zmed);
+        // The widest gap with enough cells on both sides (each plane a real face, not a
+        // few stray cells from a neighbouring face's rim).
+        let side = min_cells.max((cfg.blob_step_min_fraction * t.len() as f64) as usize);
+        if t.len() < 2 * side {
+            continue;
+        }
+        let mut split: Option<(usize, f64)> = None;
+        for x in side..=(t.len() - side) {
+            let gap = t[x].0 - t[x - 1].0;
+            if gap > gap_tol && split.is_none_or(|s| gap > s.1) {
+                split = Some((x, gap));
+            }
+        }
+        let Some((x, _)) = split else {
+            continue;
+        };
+        let (lo_cells, hi_cells) = (&t[..x], &t[x..]);
+        for (j, e) in fr.axes.iter().enumerate() {
+            if j == k {
+                continue;
+            }
+            let range = |cells: &[(f64, u32)]| {
+                let mut u: Vec<f64> = cells
+                    .iter()
+                    .map(|c| v3(&g.p[c.1 as usize]).dot(e))
+                    .collect();
+                u.sort_by(|a, b| a.total_cmp(b));
+                (
+                    u[(u.len() as f64 * 0.02) as usize],
+                    u[((u.len() as f64 * 0.98) as usize).min(u.len() - 1)],
+                )
+            };
+            let (a0, a1) = range(lo_cells);
+            let (b0, b1) = range(hi_cells);
+            // Separation (positive: disjoint along e) and where to cut.
+            let (sep, s0) = if a1 < b0 + gap_tol {
+                (b0 - a1, (a1 + b0) / 2.0)
+            } else if b1 < a0 + gap_tol {
+                (a0 - b1, (b1 + a0) / 2.0)
+            } else {
+                continue;
+            };
+            if best.is_none_or(|b| sep > b.0) {
+                best = Some((sep, *e, s0));
+            }
+        }
+    }
+    best.map(|(_, e, s0)| (e, s0))
+}
+
+/// Scored candidates of the connected objects (`labels`: object index per cell, [`NONE`] for
+/// support and unlabelled cells), each object cut recursively at steps between touching
+/// boxes. Objects (or parts) with a plane fit below `blob_min_fit` are dropped.
+pub(crate) fn blob_candidates(
+    g: &Grid,
+    labels: &[u32],
+    n_blobs: usize,
+    off: &[bool],
+    cfg: &DetectConfig,
+) -> Vec<Raw> {
+    let mut part: Vec<u32> = labels.to_vec();
+    let mut cells: Vec<Vec<u32>> = vec![Vec::new(); n_blobs];
+    for (i, &l) in labels.iter().enumerate() {
+        if l != NONE {
+            cells[l as usize].push(i as u32);
+        }
+    }
+    let dbg = std::env::var("DETECT_DEBUG").is_ok();
+    let mut next = n_blobs as u32;
+    // (label, cells, cuts so far)
+    let mut work: Vec<(u32, Vec<u32>, u32)> = cells
+        .into_iter()
+        .enumerate()
+        .map(|(b, c)| (b as u32, c, 0))
+        .collect();
+    let mut out = Vec::new();
+    while let Some((b, blob, depth)) = work.pop() {
+        if blob.len() < cfg.min_face_cells as usize {
+            continue;
+        }
+        let Some(fr) = frame_of(g, &blob, cfg) else {
+            continue;
+        };
+        if depth < cfg.blob_max_cuts {
+            if let Some((e, s0)) = find_step(g, &fr, cfg) {
+                let (mut lo, mut hi) = (Vec::new(), Vec::new());
+                for &i in &blob {
+                    if v3(&g.p[i as usize]).dot(&e) < s0 {
+                        lo.push(i);
+                    } else {
+                        hi.push(i);
+                    }
+                }
+                if dbg && blob.len() > 200 {
+                    eprintln!(
+                        "blob {b} n {} cut at {s0:.0} along {:.2} {:.2} {:.2}: {} + {}",
+                        blob.len(),
+                        e.x,
+                        e.y,
+                        e.z,
+                        lo.len(),
+                        hi.len()
+                    );
+                }
+                for &i in &hi {
+                    part[i as usize] = next;
+                }
+                work.push((b, lo, depth + 1));
+                work.push((next, hi, depth + 1));
+                next += 1;
+                continue;
+            }
+        }
+        if dbg && blob.len() > 200 {
+            eprintln!(
+                "blob {b} n {} faces {} fit {:.2} agree {:.2} bend {:.1}",
+                blob.len(),
+                fr.axes.len(),
+                fr.fit,
+                fr.agree,
+                fr.bend_deg
+            );
+        }
+        if fr.fit < cfg.blob_min_fit
+            || fr.agree < cfg.blob_min_agree
+            || fr.bend_deg > cfg.max_bend_deg
+        {
+            continue;
+        }
+        let face_refs: Vec<&[u32]> = fr.faces.iter().map(Vec::as_slice).collect();
+        let member = |i: usize| part[i] == b;
+        let unknown = |i: usize| part[i] == NONE && !off[i];
+        if let Some(raw) = score_faces(
+            g,
+            blob.clone(),
+            &face_refs,
+            &fr.axes,
+            fr.fit,
+            &member,
+            &unknown,
+            cfg,
+        ) {
+            out.push(raw);
+        }
+    }
+    out.sort_by(|a, b| b.score.total_cmp(&a.score));
+    out
+}
