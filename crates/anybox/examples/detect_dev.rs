@@ -386,6 +386,43 @@ fn main() {
                         &gtm[k],
                         &cfg_e,
                     ));
+                    if j != usize::MAX && std::env::var("DIFF").is_ok() {
+                        // Pixels only in the detection / only in the GT mask.
+                        let (mut d_only, mut g_only, mut d_only_valid) = (0, 0, 0);
+                        for (i, (&a, &c)) in masks[j].data.iter().zip(&gtm[k].data).enumerate() {
+                            if a && !c {
+                                d_only += 1;
+                                if v.depth.depth_mm[i] > 0.0 {
+                                    d_only_valid += 1;
+                                }
+                            }
+                            if c && !a {
+                                g_only += 1;
+                            }
+                        }
+                        println!(
+                            "  diff s{s} gt {k}: det-only {d_only} (valid depth {d_only_valid}) gt-only {g_only} of gt {}",
+                            gtm[k].count()
+                        );
+                        if let Ok(dir) = std::env::var("DIFF") {
+                            let mut img = v.rgb.clone();
+                            for (i, (&a, &c)) in masks[j].data.iter().zip(&gtm[k].data).enumerate()
+                            {
+                                let px = img.get_pixel_mut(
+                                    i as u32 % v.rgb.width(),
+                                    i as u32 / v.rgb.width(),
+                                );
+                                if a && !c {
+                                    px.0 = [255, 0, 0];
+                                } else if c && !a {
+                                    px.0 = [0, 0, 255];
+                                } else if a && c {
+                                    px.0 = [px.0[0] / 2, 255, px.0[2] / 2];
+                                }
+                            }
+                            let _ = img.save(format!("{dir}/diff_{name}_{s}_{k}.png"));
+                        }
+                    }
                     println!(
                         "  3d {name} s{s} gt {k} visib {:.2} size {:.0}x{:.0}x{:.0} mask-iou {miou:.2} iou3d det {d3:.2} gt {:.2} alone det {d1:.2} gt {g1:.2}",
                         b.visib_fract, b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z, i3(&est_g[k])

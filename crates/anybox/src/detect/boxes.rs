@@ -63,7 +63,8 @@ pub(crate) fn support_mask(
     // (surface index or None for a RANSAC plane, plane, bounds-the-scene, things-stand-on-it)
     let mut cands: Vec<(Option<usize>, Region, bool, bool)> = Vec::new();
     for (r, reg) in surfaces.iter().enumerate() {
-        if reg.area_mm2 < cfg.support_min_area_mm2 || reg.inlier_frac < cfg.min_plane_inlier_frac {
+        if reg.area_mm2 < cfg.support_small_area_mm2 || reg.inlier_frac < cfg.min_plane_inlier_frac
+        {
             continue;
         }
         let (strong, standing) = support_tests(g, reg, &members[r], cfg);
@@ -80,7 +81,32 @@ pub(crate) fn support_mask(
         .filter(|c| c.2 || (cfg.support_up_from_standing && c.3))
         .max_by(|a, b| a.1.area_mm2.total_cmp(&b.1.area_mm2))
         .map(|c| c.1.normal);
+    // Which candidates are supports, largest first: a large one that bounds the scene or has
+    // things standing on it (parallel to up); a small one (a desk seen from close by) only
+    // with things standing on it and no support beneath it (else it is a box top).
     let cos_up = cfg.support_normal_tol_deg.to_radians().cos();
+    let mut order: Vec<usize> = (0..cands.len()).collect();
+    order.sort_by(|&a, &b| cands[b].1.area_mm2.total_cmp(&cands[a].1.area_mm2));
+    let mut accept = vec![false; cands.len()];
+    for &c in &order {
+        let (_, reg, strong, standing) = &cands[c];
+        let parallel = up.is_none_or(|u| u.dot(&reg.normal).abs() >= cos_up);
+        accept[c] = if reg.area_mm2 >= cfg.support_min_area_mm2 {
+            *strong || (*standing && parallel)
+        } else {
+            *standing
+                && parallel
+                && !order.iter().any(|&o| {
+                    accept[o]
+                        && cands[o].1.normal.dot(&reg.normal) >= cos_up
+                        && cands[o].1.dist(&[
+                            reg.centroid.x as f32,
+                            reg.centroid.y as f32,
+                            reg.centroid.z as f32,
+                        ]) > cfg.support_side_margin_mm
+                })
+        };
+    }
     if std::env::var("DETECT_DEBUG").is_ok() {
         for c in &cands {
             eprintln!(
@@ -90,11 +116,11 @@ pub(crate) fn support_mask(
         }
     }
     // Surface planes first, then RANSAC planes (their cells are marked by plane alone).
-    cands.sort_by_key(|c| c.0.is_none());
+    let mut cands: Vec<_> = cands.into_iter().zip(accept).collect();
+    cands.sort_by_key(|c| c.0 .0.is_none());
     let mut n_surface_planes = 0;
-    for (src, reg, strong, standing) in cands {
-        let parallel = up.is_none_or(|u| u.dot(&reg.normal).abs() >= cos_up);
-        if strong || (standing && parallel) {
+    for ((src, reg, _, _), accepted) in cands {
+        if accepted {
             if let Some(r) = src {
                 is_support[r] = true;
                 n_surface_planes += 1;
@@ -309,7 +335,7 @@ fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
                 support_tests(g, &reg, &inl, cfg)
             );
         }
-        if area < cfg.support_min_area_mm2 {
+        if area < cfg.support_small_area_mm2 {
             break;
         }
         let (strong, standing) = support_tests(g, &reg, &inl, cfg);
@@ -567,8 +593,11 @@ pub(crate) fn group_candidates(
     out
 }
 
-/// Final masks: unlabelled cells inside each cuboid's silhouette that agree with it (edge
-/// bands, missing depth) are added, best candidates first; `claimed` marks cells already taken.
+/// Final masks: cells that lie within each candidate's cuboid grown by
+/// `fill_margin_factor` plane tolerances (edge bands, a grazing side face, the foot of a box
+/// cut off next to its support, missing depth inside the silhouette) are added, best
+/// candidates first. `claimed` marks cells that are never added: supports and every
+/// candidate's own cells.
 pub(crate) fn fill(
     g: &Grid,
     raws: Vec<Raw>,
@@ -576,21 +605,38 @@ pub(crate) fn fill(
     cfg: &DetectConfig,
 ) -> Vec<Candidate> {
     let (w, h) = (g.w, g.h);
+    for raw in &raws {
+        for &i in &raw.cells {
+            claimed[i as usize] = true;
+        }
+    }
     let mut result = Vec::with_capacity(raws.len());
     for raw in raws {
         let mut cells = raw.cells;
-        if let Some(hull) = silhouette_hull_px(&raw.bx, &g.k) {
+        let margin = cfg.fill_margin_factor * plane_tol(cfg, raw.bx.center_mm.z.max(1.0));
+        let grown = OrientedBox {
+            size_mm: raw.bx.size_mm.add_scalar(2.0 * margin),
+            ..raw.bx
+        };
+        let inner = silhouette_hull_px(&raw.bx, &g.k)
+            .map(|hull| rasterize_convex_polygon(&hull, w as u32, h as u32));
+        if let (Some(hull), Some(inner)) = (silhouette_hull_px(&grown, &g.k), inner) {
             let inside = rasterize_convex_polygon(&hull, w as u32, h as u32);
             for (i, &ins) in inside.iter().enumerate() {
                 if !ins || claimed[i] {
                     continue;
                 }
                 let z = g.z[i] as f64;
-                let fits = z <= 0.0 || {
+                // No depth: inside the cuboid's own silhouette only.
+                let fits = if z <= 0.0 {
+                    inner[i]
+                } else {
                     let (u, v) = ((i % w) as f64, (i / w) as f64);
                     let dir = Vector3::new((u - g.k.cx) / g.k.fx, (v - g.k.cy) / g.k.fy, 1.0);
-                    ray_box_intersection(&Point3::origin(), &dir, &raw.bx)
-                        .is_some_and(|(t, _, _)| (z - t).abs() <= 3.0 * plane_tol(cfg, z))
+                    let tol = plane_tol(cfg, z);
+                    ray_box_intersection(&Point3::origin(), &dir, &grown).is_some_and(
+                        |(t0, t1, _)| z >= t0 - tol && z <= t1.min(t0 + 2.0 * margin + 3.0 * tol),
+                    )
                 };
                 if fits {
                     claimed[i] = true;

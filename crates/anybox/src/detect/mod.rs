@@ -95,6 +95,10 @@ pub struct DetectConfig {
     /// Planar regions at least this large are support candidates (floor, table top, shelf board,
     /// wall), mm². Default 250 000 (0.25 m²).
     pub support_min_area_mm2: f64,
+    /// Smaller planar regions, down to this area, are supports only when things stand on them
+    /// and no support lies beneath them (a desk seen from close by, not a box top), mm².
+    /// Default 60 000 (0.06 m²).
+    pub support_small_area_mm2: f64,
     /// Planar surfaces at least this large are always supports (floors, walls), mm².
     /// Default 2 000 000 (2 m²; a full EUR-pallet face is 1.4 m²).
     pub support_always_area_mm2: f64,
@@ -185,6 +189,10 @@ pub struct DetectConfig {
     /// A candidate is dropped when more than this fraction of its cells belongs to a better
     /// one. Default 0.3.
     pub max_overlap: f64,
+    /// Final masks take in the cells within the candidate's cuboid grown by this multiple of
+    /// the plane tolerance on every side (edge bands, grazing side faces, a box's foot next to
+    /// its support). Default 1 (2 takes in too much on shelves).
+    pub fill_margin_factor: f64,
     /// Object-level candidates: every connected object left after support removal (cells
     /// joined by depth continuity alone) is also tried as one box (see `blobs`). Default true.
     pub blobs: bool,
@@ -239,6 +247,7 @@ impl Default for DetectConfig {
             max_normal_spread_deg: 25.0,
             max_bend_deg: 10.0,
             support_min_area_mm2: 250_000.0,
+            support_small_area_mm2: 60_000.0,
             support_always_area_mm2: 2_000_000.0,
             support_window_mm: 600.0,
             support_side_margin_mm: 30.0,
@@ -270,6 +279,7 @@ impl Default for DetectConfig {
             split_seam_reach_cells: 3,
             split_min_fraction: 0.03,
             max_overlap: 0.3,
+            fill_margin_factor: 1.0,
             blobs: true,
             blob_split_concave: true,
             blob_max_cuts: 6,
@@ -377,13 +387,11 @@ pub fn detect_boxes(
         Vec::new()
     };
     let chosen = select(&g, objects, geo, col, cfg);
-    // Cells on or next to a support are never filled in: at a box's foot they lie inside its
-    // silhouette at about its depth, and the estimator would take them for the box.
-    let mut claimed: Vec<bool> = geo_labels
-        .iter()
-        .zip(&col_labels)
-        .zip(&off)
-        .map(|((&a, &b), &o)| a != regions::NONE || b != regions::NONE || o)
+    // Support cells, and cells next to a support facing like it, are never filled in: at a
+    // box's foot they lie inside its silhouette at about its depth, and the estimator would
+    // take them for the box. (The box's own foot, cut off its object, faces sideways.)
+    let mut claimed: Vec<bool> = (0..g.z.len())
+        .map(|i| on_support[i] || (off[i] && flat_near_support(&g, &planes, i, cfg)))
         .collect();
     let cands = boxes::fill(&g, chosen, &mut claimed, cfg);
     let step = g.step;
@@ -415,6 +423,23 @@ pub fn detect_boxes(
         })
         .collect();
     Ok(out)
+}
+
+/// Whether cell `i` (near a support plane) faces like one of `planes` (within 45°), or has no
+/// normal: a piece of the support rather than the foot of a box's side.
+fn flat_near_support(
+    g: &grid::Grid,
+    planes: &[regions::Region],
+    i: usize,
+    cfg: &DetectConfig,
+) -> bool {
+    let n = nalgebra::Vector3::new(g.n[i][0] as f64, g.n[i][1] as f64, g.n[i][2] as f64);
+    n.norm_squared() < 0.5
+        || planes.iter().any(|pl| {
+            pl.dist(&g.p[i]).abs()
+                <= cfg.blob_support_gap_factor * regions::plane_tol(cfg, g.z[i] as f64)
+                && pl.normal.dot(&n) >= std::f64::consts::FRAC_1_SQRT_2
+        })
 }
 
 /// Connected objects (cells joined by depth continuity alone) once supports are removed:
