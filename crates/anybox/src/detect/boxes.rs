@@ -19,6 +19,7 @@ use anybox_geom::projection::{
 };
 use anybox_geom::OrientedBox;
 use nalgebra::{Matrix3, Point2, Point3, Rotation3, Vector3};
+use rayon::prelude::*;
 
 use super::grid::Grid;
 use super::regions::{plane_tol, Region, NONE};
@@ -62,13 +63,18 @@ pub(crate) fn support_mask(
     }
     // (surface index or None for a RANSAC plane, plane, bounds-the-scene, things-stand-on-it)
     let mut cands: Vec<(Option<usize>, Region, bool, bool)> = Vec::new();
-    for (r, reg) in surfaces.iter().enumerate() {
-        if reg.area_mm2 < cfg.support_small_area_mm2 || reg.inlier_frac < cfg.min_plane_inlier_frac
-        {
-            continue;
-        }
-        let (strong, standing) = support_tests(g, reg, &members[r], cfg);
-        cands.push((Some(r), reg.clone(), strong, standing));
+    let big: Vec<usize> = (0..surfaces.len())
+        .filter(|&r| {
+            surfaces[r].area_mm2 >= cfg.support_small_area_mm2
+                && surfaces[r].inlier_frac >= cfg.min_plane_inlier_frac
+        })
+        .collect();
+    let tests: Vec<(bool, bool)> = big
+        .par_iter()
+        .map(|&r| support_tests(g, &surfaces[r], &members[r], cfg))
+        .collect();
+    for (&r, (strong, standing)) in big.iter().zip(tests) {
+        cands.push((Some(r), surfaces[r].clone(), strong, standing));
     }
     for (reg, strong, standing) in ransac_planes(g, cfg) {
         cands.push((None, reg, strong, standing));
@@ -207,7 +213,9 @@ fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) ->
         .collect();
     let hull = convex_hull_2d(&pts);
     let (mut front, mut behind_in, mut behind, mut valid) = (0usize, 0usize, 0usize, 0usize);
-    for (i, &z) in g.z.iter().enumerate() {
+    // Every third cell: the tests compare fractions, and the frame's cells are many.
+    const SUB: usize = 3;
+    for (i, &z) in g.z.iter().enumerate().step_by(SUB) {
         if z <= 0.0 {
             continue;
         }
@@ -232,7 +240,8 @@ fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) ->
         reg.area_mm2 >= cfg.support_always_area_mm2
             || (behind as f64) < cfg.support_max_behind_fraction * valid as f64,
         // A box top (a carton layer) has the boxes' bodies under it; a table has legs at most.
-        front as f64 >= cfg.support_min_front_fraction * cells.len() as f64 && front > behind_in,
+        (SUB * front) as f64 >= cfg.support_min_front_fraction * cells.len() as f64
+            && front > behind_in,
     )
 }
 
@@ -268,20 +277,28 @@ fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
         if pool.len() < 3 {
             break;
         }
+        // Hypotheses drawn in order from the fixed stream, scored in parallel; the first best
+        // wins, so the result does not depend on the thread count.
+        let hyps: Vec<(Vector3<f64>, Vector3<f64>)> = (0..cfg.support_ransac_iters)
+            .filter_map(|_| {
+                let (a, b, c) = (
+                    v3(&g.p[pool[next(pool.len())]]),
+                    v3(&g.p[pool[next(pool.len())]]),
+                    v3(&g.p[pool[next(pool.len())]]),
+                );
+                let mut n = (b - a).cross(&(c - a)).try_normalize(1e-9)?;
+                if n.dot(&a) > 0.0 {
+                    n = -n;
+                }
+                Some((a, n))
+            })
+            .collect();
+        let counts: Vec<usize> = hyps
+            .par_iter()
+            .map(|(a, n)| pool.iter().step_by(8).filter(|&&i| fits(i, a, n)).count())
+            .collect();
         let mut best: Option<(usize, Vector3<f64>, Vector3<f64>)> = None;
-        for _ in 0..cfg.support_ransac_iters {
-            let (a, b, c) = (
-                v3(&g.p[pool[next(pool.len())]]),
-                v3(&g.p[pool[next(pool.len())]]),
-                v3(&g.p[pool[next(pool.len())]]),
-            );
-            let Some(mut n) = (b - a).cross(&(c - a)).try_normalize(1e-9) else {
-                continue;
-            };
-            if n.dot(&a) > 0.0 {
-                n = -n;
-            }
-            let count = pool.iter().step_by(8).filter(|&&i| fits(i, &a, &n)).count();
+        for ((a, n), count) in hyps.into_iter().zip(counts) {
             if best.as_ref().is_none_or(|b| count > b.0) {
                 best = Some((count, a, n));
             }

@@ -8,6 +8,7 @@ use anybox_geom::Intrinsics;
 use anybox_io::{DepthMap, RgbImage};
 
 use super::DetectConfig;
+use rayon::prelude::*;
 
 /// Per-cell data of the downsampled frame.
 pub(crate) struct Grid {
@@ -60,10 +61,50 @@ impl Grid {
             cx: (k.cx - off) / s,
             cy: (k.cy - off) / s,
         };
-        let mut z = vec![0f32; n];
-        let mut c = vec![[128f32; 3]; n];
-        let mut vals = Vec::with_capacity(step * step);
-        for gv in 0..h {
+        // Seams (full resolution) and the depth cells are independent: built in parallel.
+        let (seam, (z, c)) = rayon::join(
+            || match rgb {
+                Some(img) if cfg.seam_valley_levels > 0.0 => seams(img, w, h, step, cfg),
+                _ => vec![false; n],
+            },
+            || cells(rgb, depth, w, h, step, cfg),
+        );
+        let p = points(&z, w, h, &gk);
+        let zs = smooth_depth(&z, w, h, cfg);
+        let ps = points(&zs, w, h, &gk);
+        let nrm = normals(&zs, &ps, w, h, cfg);
+        let c = if rgb.is_some() { box3(&c, w, h) } else { c };
+        Grid {
+            w,
+            h,
+            step,
+            k: gk,
+            z,
+            p,
+            n: nrm,
+            c,
+            seam,
+        }
+    }
+}
+
+/// Per cell: the depth of the nearest surface (mm; 0 = no valid pixel) and the mean colour
+/// (grey without RGB), rows in parallel.
+fn cells(
+    rgb: Option<&RgbImage>,
+    depth: &DepthMap,
+    w: usize,
+    h: usize,
+    step: usize,
+    cfg: &DetectConfig,
+) -> (Vec<f32>, Vec<[f32; 3]>) {
+    let (fw, fh) = (depth.width as usize, depth.height as usize);
+    let rows: Vec<(Vec<f32>, Vec<[f32; 3]>)> = (0..h)
+        .into_par_iter()
+        .map(|gv| {
+            let mut z = vec![0f32; w];
+            let mut c = vec![[128f32; 3]; w];
+            let mut vals = Vec::with_capacity(step * step);
             for gu in 0..w {
                 vals.clear();
                 let mut col = [0f32; 3];
@@ -91,9 +132,8 @@ impl Grid {
                         }
                     }
                 }
-                let i = gv * w + gu;
                 if nc > 0.0 {
-                    c[i] = [col[0] / nc, col[1] / nc, col[2] / nc];
+                    c[gu] = [col[0] / nc, col[1] / nc, col[2] / nc];
                 }
                 if let Some(&zmin) = vals.iter().min_by(|a, b| a.total_cmp(b)) {
                     // The nearest surface in the cell: mixed cells keep the front one.
@@ -105,31 +145,19 @@ impl Grid {
                             cnt += 1.0;
                         }
                     }
-                    z[i] = sum / cnt;
+                    z[gu] = sum / cnt;
                 }
             }
-        }
-        let p = points(&z, w, h, &gk);
-        let zs = smooth_depth(&z, w, h, cfg);
-        let ps = points(&zs, w, h, &gk);
-        let nrm = normals(&zs, &ps, w, h, cfg);
-        let c = if rgb.is_some() { box3(&c, w, h) } else { c };
-        let seam = match rgb {
-            Some(img) if cfg.seam_valley_levels > 0.0 => seams(img, w, h, step, cfg),
-            _ => vec![false; n],
-        };
-        Grid {
-            w,
-            h,
-            step,
-            k: gk,
-            z,
-            p,
-            n: nrm,
-            c,
-            seam,
-        }
+            (z, c)
+        })
+        .collect();
+    let mut z = Vec::with_capacity(w * h);
+    let mut c = Vec::with_capacity(w * h);
+    for (rz, rc) in rows {
+        z.extend(rz);
+        c.extend(rc);
     }
+    (z, c)
 }
 
 /// Thin dark lines: a pixel darker than both pixels two to either side (along a row or a

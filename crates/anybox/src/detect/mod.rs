@@ -370,22 +370,38 @@ pub fn detect_boxes(
     let (geo_labels, surfaces) = regions::segment(&g, &joins, Cues::Geometry, None, cfg);
     let (on_support, planes) = boxes::support_mask(&g, &geo_labels, &surfaces, cfg);
     // Segment again without the support cells: what leaked into a support becomes its own.
-    let (geo_labels, surfaces) =
-        regions::segment(&g, &joins, Cues::Geometry, Some(&on_support), cfg);
-    let (mut col_labels, patches) = regions::segment(&g, &joins, Cues::All, Some(&on_support), cfg);
-    let n_patches = regions::bridge_tape(&g, &mut col_labels, &patches, cfg);
-    let patches = regions::fit_regions(&g, &col_labels, n_patches, cfg);
-    let geo = boxes::group_candidates(&g, &geo_labels, &surfaces, &on_support, cfg);
-    let geo = boxes::drop_support_fragments(&g, geo, &planes, cfg);
-    let col = boxes::group_candidates(&g, &col_labels, &patches, &on_support, cfg);
-    let col = boxes::drop_support_fragments(&g, col, &planes, cfg);
-    let (obj_labels, off, n_obj) = object_labels(&g, &joins, &on_support, &planes, cfg);
-    let objects = if cfg.blobs {
-        let c = blobs::blob_candidates(&g, &obj_labels, n_obj, &off, cfg);
-        boxes::drop_support_fragments(&g, c, &planes, cfg)
-    } else {
-        Vec::new()
-    };
+    // Surfaces, colour patches and objects are independent from here: built in parallel.
+    let (geo, (col, (off, objects))) = rayon::join(
+        || {
+            let (labels, surfaces) =
+                regions::segment(&g, &joins, Cues::Geometry, Some(&on_support), cfg);
+            let c = boxes::group_candidates(&g, &labels, &surfaces, &on_support, cfg);
+            boxes::drop_support_fragments(&g, c, &planes, cfg)
+        },
+        || {
+            rayon::join(
+                || {
+                    let (mut labels, patches) =
+                        regions::segment(&g, &joins, Cues::All, Some(&on_support), cfg);
+                    let n_patches = regions::bridge_tape(&g, &mut labels, &patches, cfg);
+                    let patches = regions::fit_regions(&g, &labels, n_patches, cfg);
+                    let c = boxes::group_candidates(&g, &labels, &patches, &on_support, cfg);
+                    boxes::drop_support_fragments(&g, c, &planes, cfg)
+                },
+                || {
+                    let (obj_labels, off, n_obj) =
+                        object_labels(&g, &joins, &on_support, &planes, cfg);
+                    let objects = if cfg.blobs {
+                        let c = blobs::blob_candidates(&g, &obj_labels, n_obj, &off, cfg);
+                        boxes::drop_support_fragments(&g, c, &planes, cfg)
+                    } else {
+                        Vec::new()
+                    };
+                    (off, objects)
+                },
+            )
+        },
+    );
     let chosen = select(&g, objects, geo, col, cfg);
     // Support cells, and cells next to a support facing like it, are never filled in: at a
     // box's foot they lie inside its silhouette at about its depth, and the estimator would
