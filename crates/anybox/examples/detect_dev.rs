@@ -342,6 +342,26 @@ fn main() {
                     anybox::pipeline::estimate_frame(&v.depth, &v.intrinsics, &masks, &cfg_e);
                 let gtm: Vec<Mask> = v.boxes.iter().map(|b| b.mask_visib.clone()).collect();
                 let est_g = anybox::pipeline::estimate_frame(&v.depth, &v.intrinsics, &gtm, &cfg_e);
+                if std::env::var("DET3D").is_ok() {
+                    // Per detection: its score and the best 3D IoU of its estimate with any
+                    // GT box (and that GT's visibility).
+                    for (j, d) in dets.iter().enumerate() {
+                        let best = v
+                            .boxes
+                            .iter()
+                            .map(|b| {
+                                let i = est_d[j]
+                                    .as_ref()
+                                    .map_or(0.0, |e| iou(&e.pose, &b.pose, IouMethod::Exact));
+                                (i, b.visib_fract)
+                            })
+                            .fold((0.0, 0.0), |a, x| if x.0 > a.0 { x } else { a });
+                        println!(
+                            "  d3 score {:.3} faces {} iou3d {:.2} visib {:.2}",
+                            d.score, d.n_faces, best.0, best.1
+                        );
+                    }
+                }
                 for (k, b) in v.boxes.iter().enumerate() {
                     if b.visib_fract < 0.5 {
                         continue;

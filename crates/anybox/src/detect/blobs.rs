@@ -61,6 +61,9 @@ struct Frame {
     fit: f64,
     /// Fraction of the cells with a normal whose normal agrees with a face.
     agree: f64,
+    /// All three box axes: `axes` completed by the unseen ones (for a lone face, the in-plane
+    /// axes of the smallest rectangle around its cells).
+    full: [Vector3<f64>; 3],
     /// The largest bend of a face: the angle between the mean normals of its two halves,
     /// split at the median along either in-plane axis, degrees (a cylinder's side bends, a
     /// box face does not).
@@ -151,7 +154,26 @@ fn frame_of(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<Frame> {
             } else {
                 Vector3::y()
             };
-            let b = a.cross(&t).normalize();
+            let b0 = a.cross(&t).normalize();
+            let c0 = a.cross(&b0);
+            let pts: Vec<Vector3<f64>> = cells.iter().map(|&i| v3(&g.p[i as usize])).collect();
+            let span = |e: &Vector3<f64>| {
+                let (lo, hi) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |r, p| {
+                    let d = p.dot(e);
+                    (r.0.min(d), r.1.max(d))
+                });
+                hi - lo
+            };
+            // 3° steps over a quarter turn: the smallest bounding rectangle.
+            let b = (0..30)
+                .map(|k| {
+                    let th = (k as f64 * 3.0).to_radians();
+                    b0 * th.cos() + c0 * th.sin()
+                })
+                .min_by(|x, y| {
+                    (span(x) * span(&a.cross(x))).total_cmp(&(span(y) * span(&a.cross(y))))
+                })
+                .unwrap_or(b0);
             [a, b, a.cross(&b)]
         }
         _ => [axes[0], axes[1], axes[0].cross(&axes[1])],
@@ -186,6 +208,7 @@ fn frame_of(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<Frame> {
         fit: on_plane as f64 / cells.len().max(1) as f64,
         agree: assigned as f64 / valid.len().max(1) as f64,
         bend_deg,
+        full,
     })
 }
 
@@ -224,11 +247,27 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<(Vector3<f64>, 
                 split = Some((x, gap));
             }
         }
+        if std::env::var("DETECT_DEBUG").is_ok() && t.len() > 500 {
+            eprintln!(
+                "  step? face {k} n {} side {side} gap_tol {gap_tol:.0} range {:.0}..{:.0} split {:?}",
+                t.len(),
+                t[0].0,
+                t[t.len() - 1].0,
+                split.map(|s| (t[s.0 - 1].0, t[s.0].0))
+            );
+        }
         let Some((x, _)) = split else {
             continue;
         };
         let (lo_cells, hi_cells) = (&t[..x], &t[x..]);
-        for (j, e) in fr.axes.iter().enumerate() {
+        // Every box axis, the unseen third one too (the riser between two tops is often
+        // hidden); a lone face's in-plane axes are guesses and are not used.
+        let axes: &[Vector3<f64>] = if fr.axes.len() >= 2 {
+            &fr.full
+        } else {
+            &fr.axes
+        };
+        for (j, e) in axes.iter().enumerate() {
             if j == k {
                 continue;
             }
