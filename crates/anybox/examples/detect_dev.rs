@@ -336,7 +336,10 @@ fn main() {
                 // Per GT (visib ≥ 0.5): best detection mask IoU, and the 3D IoU of the estimate
                 // from that detection's mask versus from the GT mask.
                 use anybox::geom::iou::{iou, IouMethod};
-                let cfg_e = anybox::config::Config::default();
+                let cfg_e: anybox::config::Config = std::env::var("EST_CFG")
+                    .ok()
+                    .and_then(|j| serde_json::from_str(&j).ok())
+                    .unwrap_or_default();
                 let masks: Vec<Mask> = dets.iter().map(|d| d.mask.clone()).collect();
                 let est_d =
                     anybox::pipeline::estimate_frame(&v.depth, &v.intrinsics, &masks, &cfg_e);
@@ -423,6 +426,23 @@ fn main() {
                         println!(
                             "  diff s{s} gt {k}: det-only {d_only} (valid depth {d_only_valid}) gt-only {g_only} of gt {}",
                             gtm[k].count()
+                        );
+                        let show = |e: &Result<anybox::pipeline::BoxEstimate, _>| match e {
+                            Ok(e) => format!(
+                                "size {:.0?} centre {:.0?} observed {:?} score {:.2}",
+                                e.pose.size_mm.as_slice(),
+                                e.pose.center_mm.as_slice(),
+                                e.observed_axes,
+                                e.score
+                            ),
+                            Err(x) => format!("{x}"),
+                        };
+                        println!(
+                            "    det est {}\n    gt  est {}\n    truth size {:.0?} centre {:.0?}",
+                            show(&est_d[j]),
+                            show(&est_g[k]),
+                            b.pose.size_mm.as_slice(),
+                            b.pose.center_mm.as_slice()
                         );
                         if let Ok(dir) = std::env::var("DIFF") {
                             let mut img = v.rgb.clone();

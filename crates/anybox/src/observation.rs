@@ -60,6 +60,21 @@ pub struct ObservationConfig {
     /// (background out of range), so a pose whose silhouette spills into it is wrong (bench,
     /// oracle size, AP@0.9 3-dims: 0.837 → 0.855 seed 2026, 0.719 → 0.739 seed 7).
     pub missing_explains: bool,
+    /// Trim a mask's leak onto the surface around it (a table or a neighbouring face caught by
+    /// the segmenter): see [`trim_support_leak`]. Default true.
+    pub leak_trim: bool,
+    /// Width of the ring around the mask whose dominant plane is the candidate support, px.
+    /// Default 8.
+    pub leak_ring_px: u32,
+    /// The ring's plane must hold at least this fraction of the ring's points. Default 0.5.
+    pub leak_min_ring_fraction: f64,
+    /// At most this fraction of the mask's points may lie on it (more: the plane is the box's
+    /// own face, flush with its neighbours, and nothing is trimmed). Default 0.35.
+    pub leak_max_fraction: f64,
+    /// Plane tolerance: constant part, mm. Default 6.
+    pub leak_tol_mm: f64,
+    /// Plane tolerance: part relative to depth. Default 0.01.
+    pub leak_tol_rel: f64,
 }
 
 impl Default for ObservationConfig {
@@ -74,8 +89,189 @@ impl Default for ObservationConfig {
             occluder_margin_mm: 20.0,
             occluder_ref_quantile: 0.5,
             missing_explains: false,
+            leak_trim: true,
+            leak_ring_px: 8,
+            leak_min_ring_fraction: 0.5,
+            leak_max_fraction: 0.35,
+            leak_tol_mm: 6.0,
+            leak_tol_rel: 0.01,
         }
     }
+}
+
+/// The mask without its leak onto the surface it stands on or lies against: the dominant plane
+/// of a ring of `leak_ring_px` around the mask (RANSAC, deterministic; at least
+/// `leak_min_ring_fraction` of the ring) is the support; mask pixels on that plane and facing
+/// like it (within 30°: a box's side face at its foot faces sideways) are removed
+/// when they are at most `leak_max_fraction` of the mask and the rest of the mask lies in front
+/// of the plane (towards the camera). `None` when nothing is trimmed. A few per cent of table
+/// pixels at a box's foot otherwise pull the face hypotheses and the size fit onto the table.
+pub fn trim_support_leak(
+    depth: &DepthMap,
+    intrinsics: &Intrinsics,
+    mask: &Mask,
+    cfg: &ObservationConfig,
+) -> Option<Mask> {
+    if !cfg.leak_trim || depth.width != mask.width || depth.height != mask.height {
+        return None;
+    }
+    let (w, h) = (mask.width as usize, mask.height as usize);
+    let (u0, v0, u1, v1) = mask.bbox()?;
+    let r = cfg.leak_ring_px.max(1) as usize;
+    let (eu0, ev0) = (
+        (u0 as usize).saturating_sub(r),
+        (v0 as usize).saturating_sub(r),
+    );
+    let (eu1, ev1) = ((u1 as usize + r + 1).min(w), (v1 as usize + r + 1).min(h));
+    let (bw, bh) = (eu1 - eu0, ev1 - ev0);
+    // Square dilation of the mask by r, separably: rows, then columns.
+    let mut rows = vec![false; bw * bh];
+    for y in 0..bh {
+        let v = ev0 + y;
+        let mut last: Option<usize> = None;
+        let mut next_at = vec![usize::MAX; bw];
+        for x in (0..bw).rev() {
+            if mask.data[v * w + eu0 + x] {
+                last = Some(x);
+            }
+            next_at[x] = last.unwrap_or(usize::MAX);
+        }
+        let mut prev: Option<usize> = None;
+        for x in 0..bw {
+            if mask.data[v * w + eu0 + x] {
+                prev = Some(x);
+            }
+            let near_prev = prev.is_some_and(|p| x - p <= r);
+            let near_next = next_at[x] != usize::MAX && next_at[x] - x <= r;
+            rows[y * bw + x] = near_prev || near_next;
+        }
+    }
+    let mut ring_pts: Vec<Point3<f64>> = Vec::new();
+    for x in 0..bw {
+        let mut prev: Option<usize> = None;
+        let mut next_at = vec![usize::MAX; bh];
+        let mut last: Option<usize> = None;
+        for y in (0..bh).rev() {
+            if rows[y * bw + x] {
+                last = Some(y);
+            }
+            next_at[y] = last.unwrap_or(usize::MAX);
+        }
+        for y in 0..bh {
+            if rows[y * bw + x] {
+                prev = Some(y);
+            }
+            let dilated = prev.is_some_and(|p| y - p <= r)
+                || (next_at[y] != usize::MAX && next_at[y] - y <= r);
+            let (u, v) = (eu0 + x, ev0 + y);
+            let i = v * w + u;
+            if dilated && !mask.data[i] {
+                let d = depth.depth_mm[i];
+                if d.is_finite() && d > 0.0 {
+                    ring_pts.push(intrinsics.back_project(u as f64, v as f64, d as f64));
+                }
+            }
+        }
+    }
+    if ring_pts.len() < 30 {
+        return None;
+    }
+    let stride = ring_pts.len().div_ceil(1500).max(1);
+    let ring: Vec<Point3<f64>> = ring_pts.into_iter().step_by(stride).collect();
+    let tol = |p: &Point3<f64>| cfg.leak_tol_mm.max(cfg.leak_tol_rel * p.z);
+    // RANSAC over the ring with a fixed stream (SplitMix64): deterministic.
+    let mut state: u64 = 0x2545_F491_4F6C_DD1D;
+    let mut next = |n: usize| -> usize {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) % n as u64) as usize
+    };
+    let mut best: Option<(usize, Vector3<f64>, Point3<f64>)> = None;
+    for _ in 0..100 {
+        let (a, b, c) = (
+            ring[next(ring.len())],
+            ring[next(ring.len())],
+            ring[next(ring.len())],
+        );
+        let Some(n) = (b - a).cross(&(c - a)).try_normalize(1e-9) else {
+            continue;
+        };
+        let count = ring
+            .iter()
+            .filter(|p| (*p - a).dot(&n).abs() <= tol(p))
+            .count();
+        if best.as_ref().is_none_or(|x| count > x.0) {
+            best = Some((count, n, a));
+        }
+    }
+    let (count, mut n, a) = best?;
+    if (count as f64) < cfg.leak_min_ring_fraction * ring.len() as f64 {
+        return None;
+    }
+    // Normal towards the camera: "in front" is positive.
+    if n.dot(&a.coords) > 0.0 {
+        n = -n;
+    }
+    // Whether the surface at pixel (u, v) faces like the plane (within 30°): a box's side
+    // face at its foot lies within the tolerance of the table too, but faces sideways.
+    let point_at = |u: usize, v: usize| -> Option<Point3<f64>> {
+        let d = *depth.depth_mm.get(v * w + u)?;
+        (d.is_finite() && d > 0.0).then(|| intrinsics.back_project(u as f64, v as f64, d as f64))
+    };
+    let faces_like = |u: usize, v: usize, n: &Vector3<f64>| -> bool {
+        let q = 2;
+        if u < q || v < q || u + q >= w || v + q >= h {
+            return false;
+        }
+        let (Some(l), Some(r), Some(t), Some(b)) = (
+            point_at(u - q, v),
+            point_at(u + q, v),
+            point_at(u, v - q),
+            point_at(u, v + q),
+        ) else {
+            return false;
+        };
+        (r - l)
+            .cross(&(b - t))
+            .try_normalize(1e-9)
+            .is_some_and(|m| m.dot(n).abs() >= 0.866)
+    };
+    let mut on_plane = Vec::new();
+    let mut in_front: Vec<f64> = Vec::new();
+    for v in v0 as usize..=v1 as usize {
+        for u in u0 as usize..=u1 as usize {
+            let i = v * w + u;
+            if !mask.data[i] {
+                continue;
+            }
+            let d = depth.depth_mm[i];
+            if !(d.is_finite() && d > 0.0) {
+                continue;
+            }
+            let p = intrinsics.back_project(u as f64, v as f64, d as f64);
+            let s = (p - a).dot(&n);
+            if s.abs() <= tol(&p) && faces_like(u, v, &n) {
+                on_plane.push(i);
+            } else {
+                in_front.push(s);
+            }
+        }
+    }
+    let total = on_plane.len() + in_front.len();
+    if on_plane.is_empty()
+        || in_front.is_empty()
+        || on_plane.len() as f64 > cfg.leak_max_fraction * total as f64
+        || median(in_front) <= 0.0
+    {
+        return None;
+    }
+    let mut out = mask.clone();
+    for i in on_plane {
+        out.data[i] = false;
+    }
+    Some(out)
 }
 
 /// Row prefix sums of a mask over its bounding box: O(1) count of mask pixels in any row interval.
@@ -622,6 +818,66 @@ mod tests {
         assert_eq!(obs.mask_rows.count, 40 * 56);
         assert_eq!(obs.mask_rows.count_in_row(10, 0, 100), 56);
         assert_eq!(obs.mask_rows.count_in_row(10, 10, 19), 10);
+    }
+
+    /// A 120×90 px image: a table (plane tilted about x, ~1 m away) and a box face parallel to
+    /// the image at 700 mm; the mask is the face plus a 6 px strip of table below it.
+    fn leaky_scene() -> (Intrinsics, DepthMap, Mask, Mask) {
+        let kk = Intrinsics::new(300.0, 300.0, 60.0, 45.0).unwrap();
+        let (w, h) = (120u32, 90u32);
+        let mut depth = DepthMap::zeros(w, h);
+        let (mut face, mut leaky) = (Mask::empty(w, h), Mask::empty(w, h));
+        // Table: points with y·cos(40°) − z·sin(40°) = −700, i.e. z = (y·c + 700) / s with
+        // y = (v − cy)·z / fy.
+        let (c, s) = (40f64.to_radians().cos(), 40f64.to_radians().sin());
+        for v in 0..h {
+            for u in 0..w {
+                let b = (v as f64 - kk.cy) / kk.fy;
+                let z_table = 700.0 / (s - b * c);
+                let i = (v * w + u) as usize;
+                let in_face = (40..80).contains(&u) && (20..50).contains(&v);
+                depth.depth_mm[i] = if in_face { 700.0 } else { z_table as f32 };
+                face.set(u, v, in_face);
+                leaky.set(
+                    u,
+                    v,
+                    in_face || ((40..80).contains(&u) && (50..56).contains(&v)),
+                );
+            }
+        }
+        (kk, depth, face, leaky)
+    }
+
+    #[test]
+    fn support_leak_is_trimmed_and_clean_masks_are_left_alone() {
+        let (kk, depth, face, leaky) = leaky_scene();
+        let cfg = ObservationConfig::default();
+        let trimmed = trim_support_leak(&depth, &kk, &leaky, &cfg).expect("the strip is trimmed");
+        // The strip goes except its two rows next to the face, whose ±2 px normal window
+        // reaches across the depth edge; no face pixel goes.
+        let kept_strip = (trimmed.count() as i64 - face.count() as i64).max(0);
+        assert!(kept_strip <= 80, "{kept_strip} strip pixels left of 240");
+        assert!(face.data.iter().zip(&trimmed.data).all(|(f, t)| !*f || *t));
+        assert_eq!(
+            trim_support_leak(&depth, &kk, &face, &cfg),
+            None,
+            "nothing to trim"
+        );
+        // Off: untouched.
+        let off = ObservationConfig {
+            leak_trim: false,
+            ..cfg.clone()
+        };
+        assert_eq!(trim_support_leak(&depth, &kk, &leaky, &off), None);
+        // A mask that is mostly the plane (a box top flush with its neighbours, here the table
+        // itself) is not trimmed.
+        let mut table = Mask::empty(120, 90);
+        for v in 55..85 {
+            for u in 10..110 {
+                table.set(u, v, true);
+            }
+        }
+        assert_eq!(trim_support_leak(&depth, &kk, &table, &cfg), None);
     }
 
     #[test]

@@ -20,7 +20,7 @@ use crate::context::{
     doubt_factor, infer_hidden, share_layer_heights, ContextInputs, HiddenSource, LayerMember,
 };
 use crate::error::EstimateError;
-use crate::observation::{observe, Observation};
+use crate::observation::{observe, trim_support_leak, Observation};
 use crate::pose::estimate_pose;
 use crate::scale::{
     observed_extents_checked, observed_faces, scale_search, PoseSample, ScaleInputs, ScaleMode,
@@ -87,6 +87,8 @@ fn stage_one(
     mask: &Mask,
     cfg: &Config,
 ) -> Result<Stage, EstimateError> {
+    let trimmed = trim_support_leak(depth, k, mask, &cfg.observation);
+    let mask = trimmed.as_ref().unwrap_or(mask);
     let obs = observe(depth, k, mask, &cfg.observation)?;
     let pixels = mask_pixels(mask);
     let inputs = ScaleInputs {
