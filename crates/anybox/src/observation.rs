@@ -25,6 +25,8 @@ use anybox_geom::Intrinsics;
 use anybox_io::image::{DepthMap, Mask};
 use nalgebra::{Matrix3, Point3, Vector3};
 
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use std::sync::OnceLock;
 
 use crate::depth_filter::CellMinDepth;
@@ -179,15 +181,9 @@ pub fn trim_support_leak(
     let stride = ring_pts.len().div_ceil(1500).max(1);
     let ring: Vec<Point3<f64>> = ring_pts.into_iter().step_by(stride).collect();
     let tol = |p: &Point3<f64>| cfg.leak_tol_mm.max(cfg.leak_tol_rel * p.z);
-    // RANSAC over the ring with a fixed stream (SplitMix64): deterministic.
-    let mut state: u64 = 0x2545_F491_4F6C_DD1D;
-    let mut next = |n: usize| -> usize {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) % n as u64) as usize
-    };
+    // RANSAC over the ring with a fixed seed: deterministic.
+    let mut rng = ChaCha8Rng::seed_from_u64(0x1EA4);
+    let mut next = |n: usize| -> usize { rng.random_range(0..n) };
     let mut best: Option<(usize, Vector3<f64>, Point3<f64>)> = None;
     for _ in 0..100 {
         let (a, b, c) = (

@@ -15,7 +15,7 @@
 
 use nalgebra::Vector3;
 
-use super::boxes::{score_faces, Raw};
+use super::boxes::{rectangle_axes, score_faces, Raw};
 use super::grid::Grid;
 use super::regions::{plane_tol, NONE};
 use super::DetectConfig;
@@ -149,32 +149,8 @@ fn frame_of(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<Frame> {
     let assigned: usize = faces.iter().map(Vec::len).sum();
     let full: [Vector3<f64>; 3] = match axes.len() {
         1 => {
-            let t = if a.x.abs() < 0.9 {
-                Vector3::x()
-            } else {
-                Vector3::y()
-            };
-            let b0 = a.cross(&t).normalize();
-            let c0 = a.cross(&b0);
             let pts: Vec<Vector3<f64>> = cells.iter().map(|&i| v3(&g.p[i as usize])).collect();
-            let span = |e: &Vector3<f64>| {
-                let (lo, hi) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |r, p| {
-                    let d = p.dot(e);
-                    (r.0.min(d), r.1.max(d))
-                });
-                hi - lo
-            };
-            // 3° steps over a quarter turn: the smallest bounding rectangle.
-            let b = (0..30)
-                .map(|k| {
-                    let th = (k as f64 * 3.0).to_radians();
-                    b0 * th.cos() + c0 * th.sin()
-                })
-                .min_by(|x, y| {
-                    (span(x) * span(&a.cross(x))).total_cmp(&(span(y) * span(&a.cross(y))))
-                })
-                .unwrap_or(b0);
-            [a, b, a.cross(&b)]
+            rectangle_axes(&a, &pts, cfg.extent_quantile)
         }
         _ => [axes[0], axes[1], axes[0].cross(&axes[1])],
     };

@@ -19,6 +19,8 @@ use anybox_geom::projection::{
 };
 use anybox_geom::OrientedBox;
 use nalgebra::{Matrix3, Point2, Point3, Rotation3, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 use super::grid::Grid;
@@ -253,15 +255,9 @@ fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
         .step_by(3)
         .collect();
     let mut out = Vec::new();
-    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
-    let mut next = |n: usize| -> usize {
-        // SplitMix64: a fixed, seedless stream keeps the detector deterministic.
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) % n.max(1) as u64) as usize
-    };
+    // A fixed seed keeps the detector deterministic.
+    let mut rng = ChaCha8Rng::seed_from_u64(0x005E_ED0F_5077);
+    let mut next = |n: usize| -> usize { rng.random_range(0..n.max(1)) };
     let cell_area = 1.0 / (g.k.fx * g.k.fy);
     let cos_n = cfg.support_normal_tol_deg.to_radians().cos();
     let fits = |i: usize, c: &Vector3<f64>, n: &Vector3<f64>| -> bool {
@@ -402,6 +398,39 @@ fn robust_range(vals: &mut [f64], q: f64) -> (f64, f64) {
     let lo = *vals.select_nth_unstable_by(lo_i, |a, b| a.total_cmp(b)).1;
     let hi = *vals.select_nth_unstable_by(hi_i, |a, b| a.total_cmp(b)).1;
     (lo, hi)
+}
+
+/// The axes of a lone face with normal `a`: `a` and the in-plane pair of the smallest
+/// robust bounding rectangle (quantile `q` each end) of its points, in 3° steps over a quarter
+/// turn.
+pub(crate) fn rectangle_axes(a: &Vector3<f64>, pts: &[Vector3<f64>], q: f64) -> [Vector3<f64>; 3] {
+    let t = if a.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    // |a × t| ≥ sin(25°) by the choice of t.
+    let b0 = a.cross(&t).normalize();
+    let c0 = a.cross(&b0);
+    let mut best = (f64::INFINITY, b0, c0);
+    let mut xs = Vec::with_capacity(pts.len());
+    let mut ys = Vec::with_capacity(pts.len());
+    for k in 0..30 {
+        let th = (k as f64 * 3.0).to_radians();
+        let b = b0 * th.cos() + c0 * th.sin();
+        let c = a.cross(&b);
+        xs.clear();
+        ys.clear();
+        xs.extend(pts.iter().map(|p| p.dot(&b)));
+        ys.extend(pts.iter().map(|p| p.dot(&c)));
+        let (x0, x1) = robust_range(&mut xs, q);
+        let (y0, y1) = robust_range(&mut ys, q);
+        let area = (x1 - x0) * (y1 - y0);
+        if area < best.0 {
+            best = (area, b, c);
+        }
+    }
+    [*a, best.1, best.2]
 }
 
 /// A scored group of faces with its fitted cuboid, before the final mask fill.
@@ -735,36 +764,7 @@ pub(crate) fn score_faces(
             let b = (normals[1] - a * a.dot(&normals[1])).try_normalize(1e-9)?;
             [a, b, a.cross(&b)]
         }
-        _ => {
-            let a = normals[0];
-            let t = if a.x.abs() < 0.9 {
-                Vector3::x()
-            } else {
-                Vector3::y()
-            };
-            let b0 = a.cross(&t).normalize();
-            let c0 = a.cross(&b0);
-            // In-plane axes: the rotation with the smallest robust bounding rectangle.
-            let mut best = (f64::INFINITY, b0, c0);
-            let mut xs = Vec::with_capacity(pts.len());
-            let mut ys = Vec::with_capacity(pts.len());
-            for k in 0..30 {
-                let th = (k as f64 * 3.0).to_radians();
-                let b = b0 * th.cos() + c0 * th.sin();
-                let c = a.cross(&b);
-                xs.clear();
-                ys.clear();
-                xs.extend(pts.iter().map(|p| p.dot(&b)));
-                ys.extend(pts.iter().map(|p| p.dot(&c)));
-                let (x0, x1) = robust_range(&mut xs, cfg.extent_quantile);
-                let (y0, y1) = robust_range(&mut ys, cfg.extent_quantile);
-                let area = (x1 - x0) * (y1 - y0);
-                if area < best.0 {
-                    best = (area, b, c);
-                }
-            }
-            [a, best.1, best.2]
-        }
+        _ => rectangle_axes(&normals[0], &pts, cfg.extent_quantile),
     };
     let mut size = Vector3::zeros();
     let mut centre = Vector3::zeros();
