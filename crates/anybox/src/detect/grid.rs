@@ -269,7 +269,8 @@ fn normals(zs: &[f32], ps: &[[f32; 3]], w: usize, h: usize, cfg: &DetectConfig) 
     let same = |i: usize, j: usize| -> bool {
         zs[j] > 0.0 && (zs[j] - zs[i]).abs() <= jump_tol(cfg, zs[i])
     };
-    for v in 0..h {
+    // Rows in parallel: each normal reads the depth around it only.
+    out.par_chunks_mut(w).enumerate().for_each(|(v, row)| {
         for u in 0..w {
             let i = v * w + u;
             if zs[i] <= 0.0 {
@@ -308,9 +309,9 @@ fn normals(zs: &[f32], ps: &[[f32; 3]], w: usize, h: usize, cfg: &DetectConfig) 
             for x in n.iter_mut() {
                 *x *= sign / len;
             }
-            out[i] = n;
+            row[u] = n;
         }
-    }
+    });
     out
 }
 

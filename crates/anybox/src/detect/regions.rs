@@ -12,6 +12,7 @@ use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 use super::grid::{jump_tol, Grid};
 use super::DetectConfig;
+use rayon::prelude::*;
 
 /// Label of a cell that belongs to no region.
 pub(crate) const NONE: u32 = u32::MAX;
@@ -191,32 +192,45 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
         }
         (true, true, true)
     };
-    let mut depth = vec![0u8; w * h];
-    let mut geo = vec![0u8; w * h];
-    let mut all = vec![0u8; w * h];
-    for v in 0..h {
-        for u in 0..w {
-            let i = v * w + u;
-            if g.z[i] <= 0.0 {
-                continue;
+    // Rows in parallel: each cell's bits depend on the grid only.
+    let rows: Vec<[Vec<u8>; 3]> = (0..h)
+        .into_par_iter()
+        .map(|v| {
+            let (mut depth, mut geo, mut all) = (vec![0u8; w], vec![0u8; w], vec![0u8; w]);
+            for u in 0..w {
+                let i = v * w + u;
+                if g.z[i] <= 0.0 {
+                    continue;
+                }
+                if u + 1 < w {
+                    let back = |x: usize| (x % w > 0).then(|| x - 1);
+                    let fwd = |x: usize| (x % w + 1 < w).then(|| x + 1);
+                    let (d, a, b) = judge(i, i + 1, &back, &fwd);
+                    depth[u] |= d as u8;
+                    geo[u] |= a as u8;
+                    all[u] |= b as u8;
+                }
+                if v + 1 < h {
+                    let back = |x: usize| (x >= w).then(|| x - w);
+                    let fwd = |x: usize| (x + w < w * h).then(|| x + w);
+                    let (d, a, b) = judge(i, i + w, &back, &fwd);
+                    depth[u] |= (d as u8) << 1;
+                    geo[u] |= (a as u8) << 1;
+                    all[u] |= (b as u8) << 1;
+                }
             }
-            if u + 1 < w {
-                let back = |x: usize| (x % w > 0).then(|| x - 1);
-                let fwd = |x: usize| (x % w + 1 < w).then(|| x + 1);
-                let (d, a, b) = judge(i, i + 1, &back, &fwd);
-                depth[i] |= d as u8;
-                geo[i] |= a as u8;
-                all[i] |= b as u8;
-            }
-            if v + 1 < h {
-                let back = |x: usize| (x >= w).then(|| x - w);
-                let fwd = |x: usize| (x + w < w * h).then(|| x + w);
-                let (d, a, b) = judge(i, i + w, &back, &fwd);
-                depth[i] |= (d as u8) << 1;
-                geo[i] |= (a as u8) << 1;
-                all[i] |= (b as u8) << 1;
-            }
-        }
+            [depth, geo, all]
+        })
+        .collect();
+    let (mut depth, mut geo, mut all) = (
+        Vec::with_capacity(w * h),
+        Vec::with_capacity(w * h),
+        Vec::with_capacity(w * h),
+    );
+    for [d, g, a] in rows {
+        depth.extend(d);
+        geo.extend(g);
+        all.extend(a);
     }
     Joins { depth, geo, all }
 }
