@@ -306,13 +306,16 @@ pub fn estimate_frame(
     stages.into_iter().map(|r| r.map(|s| finish(&s))).collect()
 }
 
-/// Ray-cast test scenes: boxes and planes, exact depth and visible masks (tests only).
+/// Ray-cast test scenes: boxes and planes, depth (exact or with Gaussian noise) and visible
+/// masks (tests only). The ray–box test is a local slab method, independent of the library's
+/// `anybox_geom::projection`, so that the estimator is not checked against itself.
 #[cfg(test)]
 pub(crate) mod test_scene {
-    use anybox_geom::projection::ray_box_intersection;
     use anybox_geom::{Intrinsics, OrientedBox};
     use anybox_io::{DepthMap, Mask};
-    use nalgebra::{Point3, Vector3};
+    use nalgebra::Vector3;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
 
     /// A plane `n · p = d` (camera frame, mm).
     pub(crate) struct Plane {
@@ -324,7 +327,36 @@ pub(crate) mod test_scene {
         Intrinsics::new(600.0, 600.0, 320.0, 240.0).unwrap()
     }
 
-    /// Depth and one visible mask per box.
+    /// Ray parameter of the first hit of the ray `t · dir` (camera at the origin) with the box.
+    fn hit_box(b: &OrientedBox, dir: &Vector3<f64>) -> Option<f64> {
+        let rt = b.rotation.matrix().transpose();
+        let o = rt * (-b.center_mm);
+        let d = rt * dir;
+        let h = b.half_size_mm();
+        let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+        for k in 0..3 {
+            if d[k].abs() < 1e-15 {
+                if o[k].abs() > h[k] {
+                    return None;
+                }
+                continue;
+            }
+            let a = (-h[k] - o[k]) / d[k];
+            let c = (h[k] - o[k]) / d[k];
+            t0 = t0.max(a.min(c));
+            t1 = t1.min(a.max(c));
+        }
+        (t0 <= t1 && t0 > 0.0).then_some(t0)
+    }
+
+    /// Standard normal sample (Box–Muller).
+    fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+        let a: f64 = rng.random::<f64>().max(1e-300);
+        let b: f64 = rng.random();
+        (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
+    }
+
+    /// Exact depth and one visible mask per box.
     pub(crate) fn render(
         boxes: &[OrientedBox],
         planes: &[Plane],
@@ -332,37 +364,54 @@ pub(crate) mod test_scene {
         w: u32,
         h: u32,
     ) -> (DepthMap, Vec<Mask>) {
+        render_noisy(boxes, planes, k, w, h, 0.0, 0)
+    }
+
+    /// Depth with Gaussian noise of `noise_mm` (seeded) and one visible mask per box.
+    pub(crate) fn render_noisy(
+        boxes: &[OrientedBox],
+        planes: &[Plane],
+        k: &Intrinsics,
+        w: u32,
+        h: u32,
+        noise_mm: f64,
+        seed: u64,
+    ) -> (DepthMap, Vec<Mask>) {
         let mut depth = DepthMap::zeros(w, h);
         let mut masks = vec![Mask::empty(w, h); boxes.len()];
-        let o = Point3::origin();
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
         for v in 0..h {
             for u in 0..w {
-                let r = k.ray(f64::from(u), f64::from(v));
-                let mut best = f64::INFINITY;
-                let mut who: Option<usize> = None;
+                let dir = k.ray(f64::from(u), f64::from(v));
+                let mut best: Option<(f64, usize)> = None;
                 for (i, b) in boxes.iter().enumerate() {
-                    if let Some((t0, _, _)) = ray_box_intersection(&o, &r, b) {
-                        if t0 > 0.0 && t0 < best {
-                            best = t0;
-                            who = Some(i);
+                    if let Some(t) = hit_box(b, &dir) {
+                        if best.is_none_or(|(bt, _)| t < bt) {
+                            best = Some((t, i));
                         }
                     }
                 }
+                let mut z = best.map(|(t, _)| t);
                 for p in planes {
-                    let den = p.n.dot(&r);
-                    if den.abs() > 1e-9 {
+                    let den = p.n.dot(&dir);
+                    if den.abs() > 1e-12 {
                         let t = p.d / den;
-                        if t > 0.0 && t < best {
-                            best = t;
-                            who = None;
+                        if t > 0.0 && z.is_none_or(|zz| t < zz) {
+                            z = Some(t);
+                            best = None;
                         }
                     }
                 }
-                if best.is_finite() {
-                    depth.depth_mm[(v * w + u) as usize] = best as f32;
-                    if let Some(i) = who {
-                        masks[i].set(u, v, true);
-                    }
+                if let Some(z) = z {
+                    let zn = if noise_mm > 0.0 {
+                        z + noise_mm * gauss(&mut rng)
+                    } else {
+                        z
+                    };
+                    depth.depth_mm[(v * w + u) as usize] = zn as f32;
+                }
+                if let Some((_, i)) = best {
+                    masks[i].set(u, v, true);
                 }
             }
         }

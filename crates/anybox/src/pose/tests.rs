@@ -1,5 +1,5 @@
-//! End-to-end tests of `estimate_pose` on ray-cast scenes (a local renderer, independent of the
-//! estimator: slab intersection of camera rays with oriented boxes and a floor plane).
+//! End-to-end tests of `estimate_pose` on ray-cast scenes (the shared test renderer, independent
+//! of the estimator: slab intersection of camera rays with oriented boxes and a floor plane).
 
 use super::*;
 use crate::observation::{observe, ObservationConfig};
@@ -7,87 +7,19 @@ use anybox_io::image::Mask;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-pub(crate) fn cam() -> Intrinsics {
-    Intrinsics::new(600.0, 600.0, 320.0, 240.0).unwrap()
-}
+pub(crate) use crate::pipeline::test_scene::cam;
 
-/// Ray parameter of the first hit of the ray `t · dir` (camera at the origin) with the box.
-fn hit_box(b: &OrientedBox, dir: &Vector3<f64>) -> Option<f64> {
-    let rt = b.rotation.matrix().transpose();
-    let o = rt * (-b.center_mm);
-    let d = rt * dir;
-    let h = b.half_size_mm();
-    let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
-    for k in 0..3 {
-        if d[k].abs() < 1e-15 {
-            if o[k].abs() > h[k] {
-                return None;
-            }
-            continue;
-        }
-        let a = (-h[k] - o[k]) / d[k];
-        let c = (h[k] - o[k]) / d[k];
-        t0 = t0.max(a.min(c));
-        t1 = t1.min(a.max(c));
-    }
-    (t0 <= t1 && t0 > 0.0).then_some(t0)
-}
-
-/// Standard normal sample (Box–Muller).
-fn gauss(rng: &mut ChaCha8Rng) -> f64 {
-    let a: f64 = rng.random::<f64>().max(1e-300);
-    let b: f64 = rng.random();
-    (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
-}
-
-/// Renders boxes (plus an optional plane `n · p = d` behind them) into depth and per-box masks.
+/// Renders boxes (plus an optional plane `n · p = d` behind them) into depth and per-box masks,
+/// with the shared test renderer (`pipeline::test_scene`, its own slab ray caster).
 pub(crate) fn render(
     boxes: &[OrientedBox],
     plane: Option<(Vector3<f64>, f64)>,
     noise_mm: f64,
     seed: u64,
 ) -> (DepthMap, Vec<Mask>) {
-    let k = cam();
-    let (w, h) = (640u32, 480u32);
-    let mut depth = DepthMap::zeros(w, h);
-    let mut masks = vec![Mask::empty(w, h); boxes.len()];
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    for v in 0..h {
-        for u in 0..w {
-            let dir = k.ray(u as f64, v as f64);
-            let mut best: Option<(f64, usize)> = None;
-            for (i, b) in boxes.iter().enumerate() {
-                if let Some(t) = hit_box(b, &dir) {
-                    if best.is_none_or(|(bt, _)| t < bt) {
-                        best = Some((t, i));
-                    }
-                }
-            }
-            let mut z = best.map(|(t, _)| t);
-            if let Some((n, d)) = plane {
-                let den = n.dot(&dir);
-                if den.abs() > 1e-12 {
-                    let t = d / den;
-                    if t > 0.0 && z.is_none_or(|zz| t < zz) {
-                        z = Some(t);
-                        best = None;
-                    }
-                }
-            }
-            if let Some(z) = z {
-                let zn = if noise_mm > 0.0 {
-                    z + noise_mm * gauss(&mut rng)
-                } else {
-                    z
-                };
-                depth.depth_mm[(v * w + u) as usize] = zn as f32;
-            }
-            if let Some((_, i)) = best {
-                masks[i].set(u, v, true);
-            }
-        }
-    }
-    (depth, masks)
+    use crate::pipeline::test_scene::{render_noisy, Plane};
+    let planes: Vec<Plane> = plane.map(|(n, d)| Plane { n, d }).into_iter().collect();
+    render_noisy(boxes, &planes, &cam(), 640, 480, noise_mm, seed)
 }
 
 /// Rotation error modulo the box's symmetries, degrees (GEOM's independent implementation).
