@@ -68,6 +68,29 @@ pub fn visible_faces(pose: &OrientedBox) -> ([(usize, f64); 3], usize) {
     (out, n)
 }
 
+/// Residual of box-frame point `l` (mm) against the visible `faces` of a box with half-size
+/// `h`: `(e, n, on_edge)` with `e` the signed distance along the face normal when the point
+/// projects inside a face, else the distance to the closest point on the faces along the
+/// direction to it; `on_edge` when that distance is zero outside every face (the direction is
+/// then undefined and `n` is the face normal, `e` 0). `None` when no face is near.
+fn residual(
+    l: &Vector3<f64>,
+    h: &Vector3<f64>,
+    faces: &[(usize, f64)],
+) -> Option<(f64, Vector3<f64>, bool)> {
+    let (q, n_local, inside) = closest_on_faces(l, h, faces)?;
+    let diff = l - q;
+    if inside {
+        return Some((diff.dot(&n_local), n_local, false));
+    }
+    let d = diff.norm();
+    if d < 1e-12 {
+        Some((0.0, n_local, true))
+    } else {
+        Some((d, diff / d, false))
+    }
+}
+
 /// Closest point (box frame) on the visible faces to a box-frame point, with the face's outward
 /// normal (box frame) and whether the point projects inside that face rectangle.
 #[inline]
@@ -147,19 +170,9 @@ pub fn refine_pose(init: &OrientedBox, points: &[Point3<f64>], cfg: &RefineConfi
         let mut used = 0usize;
         for p in points {
             let l = rt * (p.coords - c0);
-            let Some((q, n_local, inside)) = closest_on_faces(&l, &h, faces) else {
+            // On an edge exactly the direction is undefined: the face normal, residual 0.
+            let Some((e, n_loc, _)) = residual(&l, &h, faces) else {
                 continue;
-            };
-            let diff = l - q;
-            let (e, n_loc) = if inside {
-                (diff.dot(&n_local), n_local)
-            } else {
-                let d = diff.norm();
-                if d < 1e-12 {
-                    (0.0, n_local)
-                } else {
-                    (d, diff / d)
-                }
             };
             if e.abs() > cfg.max_corr_mm {
                 continue;
@@ -250,19 +263,13 @@ pub fn align_translation(
         let mut used = 0;
         for p in points {
             let l = rt * (p.coords - pose.center_mm);
-            let Some((q, n_local, inside)) = closest_on_faces(&l, &h, faces) else {
+            // A point exactly on an edge says nothing about the translation: skipped.
+            let Some((e, n_loc, on_edge)) = residual(&l, &h, faces) else {
                 continue;
             };
-            let diff = l - q;
-            let (e, n_loc) = if inside {
-                (diff.dot(&n_local), n_local)
-            } else {
-                let d = diff.norm();
-                if d < 1e-12 {
-                    continue;
-                }
-                (d, diff / d)
-            };
+            if on_edge {
+                continue;
+            }
             if e.abs() > max_corr_mm {
                 continue;
             }
