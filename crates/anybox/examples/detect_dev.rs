@@ -78,6 +78,24 @@ impl Tally {
     }
 }
 
+/// The detection whose mask overlaps `gt` best: (index, mask IoU).
+fn best_mask_iou(dets: &[Detection], gt: &Mask) -> Option<(usize, f64)> {
+    let n_gt = gt.count();
+    dets.iter()
+        .enumerate()
+        .map(|(j, d)| {
+            let i = d
+                .mask
+                .data
+                .iter()
+                .zip(&gt.data)
+                .filter(|(a, b)| **a && **b)
+                .count();
+            (j, i as f64 / (d.mask.count() + n_gt - i).max(1) as f64)
+        })
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+}
+
 /// Scores one frame: GT masks with their visibility.
 fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], objs: Option<&[u32]>, tally: &mut Tally) {
     let n = gts.len();
@@ -159,23 +177,7 @@ fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], objs: Option<&[u32]>, ta
     if std::env::var("VERBOSE").is_ok() {
         for k in 0..n {
             if want[k] && !matched[k] {
-                let best = dets
-                    .iter()
-                    .enumerate()
-                    .map(|(j, d)| {
-                        let i = d
-                            .mask
-                            .data
-                            .iter()
-                            .zip(&gts[k].0.data)
-                            .filter(|(a, b)| **a && **b)
-                            .count();
-                        (
-                            j,
-                            i as f64 / (d.mask.count() + gt_area[k] - i).max(1) as f64,
-                        )
-                    })
-                    .max_by(|a, b| a.1.total_cmp(&b.1));
+                let best = best_mask_iou(dets, &gts[k].0);
                 // The connected object covering most of the GT: its share of the GT, and
                 // the GT's share of it (1 = isolated; lower = merged with others).
                 let obj = objs.map(|o| {
@@ -369,24 +371,7 @@ fn main() {
                     if b.visib_fract < 0.5 {
                         continue;
                     }
-                    let best = dets
-                        .iter()
-                        .enumerate()
-                        .map(|(j, d)| {
-                            let i = d
-                                .mask
-                                .data
-                                .iter()
-                                .zip(&b.mask_visib.data)
-                                .filter(|(a, c)| **a && **c)
-                                .count();
-                            (
-                                j,
-                                i as f64
-                                    / (d.mask.count() + b.mask_visib.count() - i).max(1) as f64,
-                            )
-                        })
-                        .max_by(|a, b| a.1.total_cmp(&b.1));
+                    let best = best_mask_iou(&dets, &b.mask_visib);
                     let i3 = |e: &Result<anybox::pipeline::BoxEstimate, _>| {
                         e.as_ref()
                             .map_or(-1.0, |e| iou(&e.pose, &b.pose, IouMethod::Exact))
