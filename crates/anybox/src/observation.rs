@@ -101,6 +101,26 @@ impl Default for ObservationConfig {
     }
 }
 
+/// 1-D dilation: for each of `len` positions, whether some position within `r` of it is set.
+fn dilate_line(len: usize, r: usize, set: impl Fn(usize) -> bool) -> Vec<bool> {
+    let mut out = vec![false; len];
+    let mut last: Option<usize> = None;
+    for (x, o) in out.iter_mut().enumerate() {
+        if set(x) {
+            last = Some(x);
+        }
+        *o = last.is_some_and(|p| x - p <= r);
+    }
+    let mut next: Option<usize> = None;
+    for x in (0..len).rev() {
+        if set(x) {
+            next = Some(x);
+        }
+        out[x] |= next.is_some_and(|p| p - x <= r);
+    }
+    out
+}
+
 /// The mask without its leak onto the surface it stands on or lies against: the dominant plane
 /// of a ring of `leak_ring_px` around the mask (RANSAC, deterministic; at least
 /// `leak_min_ring_fraction` of the ring) is the support; mask pixels on that plane and facing
@@ -126,52 +146,24 @@ pub fn trim_support_leak(
     );
     let (eu1, ev1) = ((u1 as usize + r + 1).min(w), (v1 as usize + r + 1).min(h));
     let (bw, bh) = (eu1 - eu0, ev1 - ev0);
+    // The pixel's 3D point where it has valid depth.
+    let point_at = |u: usize, v: usize| -> Option<Point3<f64>> {
+        let d = *depth.depth_mm.get(v * w + u)?;
+        (d.is_finite() && d > 0.0).then(|| intrinsics.back_project(u as f64, v as f64, d as f64))
+    };
     // Square dilation of the mask by r, separably: rows, then columns.
     let mut rows = vec![false; bw * bh];
     for y in 0..bh {
-        let v = ev0 + y;
-        let mut last: Option<usize> = None;
-        let mut next_at = vec![usize::MAX; bw];
-        for x in (0..bw).rev() {
-            if mask.data[v * w + eu0 + x] {
-                last = Some(x);
-            }
-            next_at[x] = last.unwrap_or(usize::MAX);
-        }
-        let mut prev: Option<usize> = None;
-        for x in 0..bw {
-            if mask.data[v * w + eu0 + x] {
-                prev = Some(x);
-            }
-            let near_prev = prev.is_some_and(|p| x - p <= r);
-            let near_next = next_at[x] != usize::MAX && next_at[x] - x <= r;
-            rows[y * bw + x] = near_prev || near_next;
-        }
+        let line = dilate_line(bw, r, |x| mask.data[(ev0 + y) * w + eu0 + x]);
+        rows[y * bw..(y + 1) * bw].copy_from_slice(&line);
     }
     let mut ring_pts: Vec<Point3<f64>> = Vec::new();
     for x in 0..bw {
-        let mut prev: Option<usize> = None;
-        let mut next_at = vec![usize::MAX; bh];
-        let mut last: Option<usize> = None;
-        for y in (0..bh).rev() {
-            if rows[y * bw + x] {
-                last = Some(y);
-            }
-            next_at[y] = last.unwrap_or(usize::MAX);
-        }
-        for y in 0..bh {
-            if rows[y * bw + x] {
-                prev = Some(y);
-            }
-            let dilated = prev.is_some_and(|p| y - p <= r)
-                || (next_at[y] != usize::MAX && next_at[y] - y <= r);
+        let line = dilate_line(bh, r, |y| rows[y * bw + x]);
+        for (y, &dilated) in line.iter().enumerate() {
             let (u, v) = (eu0 + x, ev0 + y);
-            let i = v * w + u;
-            if dilated && !mask.data[i] {
-                let d = depth.depth_mm[i];
-                if d.is_finite() && d > 0.0 {
-                    ring_pts.push(intrinsics.back_project(u as f64, v as f64, d as f64));
-                }
+            if dilated && !mask.data[v * w + u] {
+                ring_pts.extend(point_at(u, v));
             }
         }
     }
@@ -212,10 +204,6 @@ pub fn trim_support_leak(
     }
     // Whether the surface at pixel (u, v) faces like the plane (within 30°): a box's side
     // face at its foot lies within the tolerance of the table too, but faces sideways.
-    let point_at = |u: usize, v: usize| -> Option<Point3<f64>> {
-        let d = *depth.depth_mm.get(v * w + u)?;
-        (d.is_finite() && d > 0.0).then(|| intrinsics.back_project(u as f64, v as f64, d as f64))
-    };
     let faces_like = |u: usize, v: usize, n: &Vector3<f64>| -> bool {
         let q = 2;
         if u < q || v < q || u + q >= w || v + q >= h {
@@ -242,11 +230,9 @@ pub fn trim_support_leak(
             if !mask.data[i] {
                 continue;
             }
-            let d = depth.depth_mm[i];
-            if !(d.is_finite() && d > 0.0) {
+            let Some(p) = point_at(u, v) else {
                 continue;
-            }
-            let p = intrinsics.back_project(u as f64, v as f64, d as f64);
+            };
             let s = (p - a).dot(&n);
             if s.abs() <= tol(&p) && faces_like(u, v, &n) {
                 on_plane.push(i);

@@ -15,14 +15,10 @@
 
 use nalgebra::Vector3;
 
-use super::boxes::{rectangle_axes, score_faces, Raw};
+use super::boxes::{rectangle_axes, robust_range, score_faces, v3, Raw};
 use super::grid::Grid;
 use super::regions::{plane_tol, NONE};
 use super::DetectConfig;
-
-fn v3(p: &[f32; 3]) -> Vector3<f64> {
-    Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64)
-}
 
 /// The direction (unit, facing the camera) most cell normals agree with within `cos_tol`,
 /// among `cands` of them; returns it (refined as the mean of its inliers) and the inlier count.
@@ -252,11 +248,7 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<(Vector3<f64>, 
                     .iter()
                     .map(|c| v3(&g.p[c.1 as usize]).dot(e))
                     .collect();
-                u.sort_by(|a, b| a.total_cmp(b));
-                (
-                    u[(u.len() as f64 * 0.02) as usize],
-                    u[((u.len() as f64 * 0.98) as usize).min(u.len() - 1)],
-                )
+                robust_range(&mut u, 0.02)
             };
             let (a0, a1) = range(lo_cells);
             let (b0, b1) = range(hi_cells);
@@ -359,14 +351,7 @@ pub(crate) fn blob_candidates(
         let member = |i: usize| part[i] == b;
         let unknown = |i: usize| part[i] == NONE && !off[i];
         if let Some(raw) = score_faces(
-            g,
-            blob.clone(),
-            &face_refs,
-            &fr.axes,
-            fr.fit,
-            &member,
-            &unknown,
-            cfg,
+            g, blob, &face_refs, &fr.axes, fr.fit, &member, &unknown, cfg,
         ) {
             out.push(raw);
         }

@@ -37,7 +37,8 @@ pub(crate) struct Candidate {
     pub n_faces: u8,
 }
 
-fn v3(p: &[f32; 3]) -> Vector3<f64> {
+/// A grid point or normal as `f64`.
+pub(crate) fn v3(p: &[f32; 3]) -> Vector3<f64> {
     Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64)
 }
 
@@ -388,7 +389,7 @@ fn is_face(r: &Region, cfg: &DetectConfig) -> bool {
 }
 
 /// Robust range (low and high quantiles) of values.
-fn robust_range(vals: &mut [f64], q: f64) -> (f64, f64) {
+pub(crate) fn robust_range(vals: &mut [f64], q: f64) -> (f64, f64) {
     if vals.is_empty() {
         return (0.0, 0.0);
     }

@@ -442,6 +442,11 @@ pub fn detect_boxes(
     Ok(out)
 }
 
+/// Whether cell `i` lies within `blob_support_gap_factor` plane tolerances of plane `pl`.
+fn near_plane(g: &grid::Grid, pl: &regions::Region, i: usize, cfg: &DetectConfig) -> bool {
+    pl.dist(&g.p[i]).abs() <= cfg.blob_support_gap_factor * regions::plane_tol(cfg, g.z[i] as f64)
+}
+
 /// Whether cell `i` (near a support plane) faces like one of `planes` (within 45°), or has no
 /// normal: a piece of the support rather than the foot of a box's side.
 fn flat_near_support(
@@ -450,12 +455,10 @@ fn flat_near_support(
     i: usize,
     cfg: &DetectConfig,
 ) -> bool {
-    let n = nalgebra::Vector3::new(g.n[i][0] as f64, g.n[i][1] as f64, g.n[i][2] as f64);
+    let n = boxes::v3(&g.n[i]);
     n.norm_squared() < 0.5
         || planes.iter().any(|pl| {
-            pl.dist(&g.p[i]).abs()
-                <= cfg.blob_support_gap_factor * regions::plane_tol(cfg, g.z[i] as f64)
-                && pl.normal.dot(&n) >= std::f64::consts::FRAC_1_SQRT_2
+            near_plane(g, pl, i, cfg) && pl.normal.dot(&n) >= std::f64::consts::FRAC_1_SQRT_2
         })
 }
 
@@ -472,12 +475,7 @@ fn object_labels(
 ) -> (Vec<u32>, Vec<bool>, usize) {
     let off: Vec<bool> = (0..g.z.len())
         .map(|i| {
-            on_support[i]
-                || (g.z[i] > 0.0
-                    && planes.iter().any(|pl| {
-                        pl.dist(&g.p[i]).abs()
-                            <= cfg.blob_support_gap_factor * regions::plane_tol(cfg, g.z[i] as f64)
-                    }))
+            on_support[i] || (g.z[i] > 0.0 && planes.iter().any(|pl| near_plane(g, pl, i, cfg)))
         })
         .collect();
     let (labels, objs) = regions::segment(g, joins, Cues::Depth, Some(&off), cfg);
