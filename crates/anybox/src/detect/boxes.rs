@@ -403,8 +403,11 @@ pub(crate) fn robust_range(vals: &mut [f64], q: f64) -> (f64, f64) {
 
 /// The axes of a lone face with normal `a`: `a` and the in-plane pair of the smallest
 /// robust bounding rectangle (quantile `q` each end) of its points, in 3° steps over a quarter
-/// turn.
+/// turn. Faces of more than 512 points are measured on an even stride of them: the quantiles
+/// barely move, and this runs for every lone face of every object (a quarter of detection time
+/// before).
 pub(crate) fn rectangle_axes(a: &Vector3<f64>, pts: &[Vector3<f64>], q: f64) -> [Vector3<f64>; 3] {
+    let stride = pts.len().div_ceil(512).max(1);
     let t = if a.x.abs() < 0.9 {
         Vector3::x()
     } else {
@@ -422,8 +425,8 @@ pub(crate) fn rectangle_axes(a: &Vector3<f64>, pts: &[Vector3<f64>], q: f64) -> 
         let c = a.cross(&b);
         xs.clear();
         ys.clear();
-        xs.extend(pts.iter().map(|p| p.dot(&b)));
-        ys.extend(pts.iter().map(|p| p.dot(&c)));
+        xs.extend(pts.iter().step_by(stride).map(|p| p.dot(&b)));
+        ys.extend(pts.iter().step_by(stride).map(|p| p.dot(&c)));
         let (x0, x1) = robust_range(&mut xs, q);
         let (y0, y1) = robust_range(&mut ys, q);
         let area = (x1 - x0) * (y1 - y0);

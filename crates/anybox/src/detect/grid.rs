@@ -225,25 +225,18 @@ fn points(z: &[f32], w: usize, h: usize, k: &Intrinsics) -> Vec<[f32; 3]> {
 fn smooth_depth(z: &[f32], w: usize, h: usize, cfg: &DetectConfig) -> Vec<f32> {
     let r = cfg.smooth_radius_cells as isize;
     let mut out = vec![0f32; w * h];
-    for v in 0..h as isize {
-        for u in 0..w as isize {
-            let i = v as usize * w + u as usize;
-            let zc = z[i];
+    out.par_chunks_mut(w).enumerate().for_each(|(v, row)| {
+        let v = v as isize;
+        for (u, o) in row.iter_mut().enumerate() {
+            let u = u as isize;
+            let zc = z[v as usize * w + u as usize];
             if zc <= 0.0 {
                 continue;
             }
             let tol = jump_tol(cfg, zc);
             let (mut s, mut n) = (0f32, 0f32);
-            for dv in -r..=r {
-                let vv = v + dv;
-                if vv < 0 || vv >= h as isize {
-                    continue;
-                }
-                for du in -r..=r {
-                    let uu = u + du;
-                    if uu < 0 || uu >= w as isize {
-                        continue;
-                    }
+            for vv in (v - r).max(0)..=(v + r).min(h as isize - 1) {
+                for uu in (u - r).max(0)..=(u + r).min(w as isize - 1) {
                     let zn = z[vv as usize * w + uu as usize];
                     if zn > 0.0 && (zn - zc).abs() <= tol {
                         s += zn;
@@ -251,9 +244,9 @@ fn smooth_depth(z: &[f32], w: usize, h: usize, cfg: &DetectConfig) -> Vec<f32> {
                     }
                 }
             }
-            out[i] = s / n;
+            *o = s / n;
         }
-    }
+    });
     out
 }
 

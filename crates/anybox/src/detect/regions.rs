@@ -291,11 +291,48 @@ pub(crate) fn segment(
     (labels, regions)
 }
 
+/// Running first and second moments of 3D points (the upper triangle only: a full outer
+/// product per point was a tenth of detection time).
+#[derive(Clone, Copy, Default)]
+struct Moments {
+    n: usize,
+    s1: [f64; 3],
+    /// xx, xy, xz, yy, yz, zz.
+    s2: [f64; 6],
+}
+
+impl Moments {
+    fn add(&mut self, p: &Vector3<f64>) {
+        let (x, y, z) = (p.x, p.y, p.z);
+        self.n += 1;
+        self.s1[0] += x;
+        self.s1[1] += y;
+        self.s1[2] += z;
+        self.s2[0] += x * x;
+        self.s2[1] += x * y;
+        self.s2[2] += x * z;
+        self.s2[3] += y * y;
+        self.s2[4] += y * z;
+        self.s2[5] += z * z;
+    }
+
+    /// Mean and covariance (over at least one point).
+    fn mean_cov(&self) -> (Vector3<f64>, Matrix3<f64>) {
+        let m = self.n.max(1) as f64;
+        let c = Vector3::new(self.s1[0], self.s1[1], self.s1[2]) / m;
+        let s = self.s2.map(|v| v / m);
+        let cov = Matrix3::new(
+            s[0], s[1], s[2], //
+            s[1], s[3], s[4], //
+            s[2], s[4], s[5],
+        ) - c * c.transpose();
+        (c, cov)
+    }
+}
+
 /// Plane fit (PCA) and statistics of every labelled region.
 pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig) -> Vec<Region> {
-    let mut cnt = vec![0usize; n];
-    let mut s1 = vec![Vector3::<f64>::zeros(); n];
-    let mut s2 = vec![Matrix3::<f64>::zeros(); n];
+    let mut mom = vec![Moments::default(); n];
     let mut col = vec![[0f64; 3]; n];
     for (i, &l) in labels.iter().enumerate() {
         if l == NONE {
@@ -303,19 +340,22 @@ pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig
         }
         let l = l as usize;
         let p = Vector3::new(g.p[i][0] as f64, g.p[i][1] as f64, g.p[i][2] as f64);
-        cnt[l] += 1;
-        s1[l] += p;
-        s2[l] += p * p.transpose();
+        mom[l].add(&p);
         for c in 0..3 {
             col[l][c] += g.c[i][c] as f64;
         }
     }
-    let mut regions: Vec<Region> = (0..n)
+    // One eigen-decomposition per region: the normal (smallest eigenvalue) and the in-plane
+    // principal axes (for the bend test).
+    let (mut regions, axes): (Vec<Region>, Vec<[Vector3<f64>; 2]>) = (0..n)
         .map(|l| {
-            let m = cnt[l].max(1) as f64;
-            let centroid = s1[l] / m;
-            let cov = s2[l] / m - centroid * centroid.transpose();
+            let m = mom[l].n.max(1) as f64;
+            let (centroid, cov) = mom[l].mean_cov();
             let eig = SymmetricEigen::new(cov);
+            let mut idx = [0usize, 1, 2];
+            idx.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+            // The first smallest eigenvalue (ties: the lowest index, as an empty region's
+            // zero covariance has).
             let mut k = 0;
             for j in 1..3 {
                 if eig.eigenvalues[j] < eig.eigenvalues[k] {
@@ -330,8 +370,8 @@ pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig
             if normal.dot(&centroid) > 0.0 {
                 normal = -normal;
             }
-            Region {
-                n: cnt[l],
+            let region = Region {
+                n: mom[l].n,
                 centroid,
                 normal,
                 inlier_frac: 0.0,
@@ -339,28 +379,16 @@ pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig
                 bend_deg: 90.0,
                 colour: col[l].map(|x| x / m),
                 area_mm2: 0.0,
-            }
-        })
-        .collect();
-    // In-plane principal axes, for the bend test.
-    let axes: Vec<[Vector3<f64>; 2]> = (0..n)
-        .map(|l| {
-            let m = cnt[l].max(1) as f64;
-            let c = s1[l] / m;
-            let cov = s2[l] / m - c * c.transpose();
-            let eig = SymmetricEigen::new(cov);
-            let mut idx = [0usize, 1, 2];
-            idx.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
-            [
+            };
+            let axes = [
                 eig.eigenvectors.column(idx[0]).into_owned(),
                 eig.eigenvectors.column(idx[1]).into_owned(),
-            ]
+            ];
+            (region, axes)
         })
-        .collect();
+        .unzip();
     // Per region, per axis, per half: count, sum, sum of outer products.
-    let mut hc = vec![[[0usize; 2]; 2]; n];
-    let mut hs1 = vec![[[Vector3::<f64>::zeros(); 2]; 2]; n];
-    let mut hs2 = vec![[[Matrix3::<f64>::zeros(); 2]; 2]; n];
+    let mut halves = vec![[[Moments::default(); 2]; 2]; n];
     let mut inl = vec![0usize; n];
     let mut ndot = vec![0f64; n];
     let mut nknown = vec![0usize; n];
@@ -375,9 +403,7 @@ pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig
         let p = Vector3::new(g.p[i][0] as f64, g.p[i][1] as f64, z);
         for (a, ax) in axes[l as usize].iter().enumerate() {
             let side = ((p - reg.centroid).dot(ax) > 0.0) as usize;
-            hc[l as usize][a][side] += 1;
-            hs1[l as usize][a][side] += p;
-            hs2[l as usize][a][side] += p * p.transpose();
+            halves[l as usize][a][side].add(&p);
         }
         if reg.dist(&g.p[i]).abs() <= plane_tol(cfg, z) {
             inl[l as usize] += 1;
@@ -394,7 +420,7 @@ pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig
         area[l as usize] += z * z * cell_area / cos;
     }
     for (l, reg) in regions.iter_mut().enumerate() {
-        let m = cnt[l].max(1) as f64;
+        let m = mom[l].n.max(1) as f64;
         reg.inlier_frac = inl[l] as f64 / m;
         reg.normal_spread_deg = if nknown[l] > 0 {
             (ndot[l] / nknown[l] as f64)
@@ -410,13 +436,12 @@ pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig
             let mut ns = [Vector3::zeros(); 2];
             let mut ok = true;
             for side in 0..2 {
-                let m = hc[l][a][side];
-                if m < 6 {
+                let half = &halves[l][a][side];
+                if half.n < 6 {
                     ok = false;
                     break;
                 }
-                let c = hs1[l][a][side] / m as f64;
-                let cov = hs2[l][a][side] / m as f64 - c * c.transpose();
+                let (_, cov) = half.mean_cov();
                 let eig = SymmetricEigen::new(cov);
                 ns[side] = eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
             }
