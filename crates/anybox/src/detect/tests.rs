@@ -556,3 +556,39 @@ fn ycbv_both_boxes_found_in_every_frame() {
     assert_eq!(frames, 10, "ycbv-boxes has 10 frames");
     assert_eq!(found, n_gt, "{found} of {n_gt} boxes found at 3D IoU > 0.5");
 }
+
+#[test]
+fn small_lone_faces_are_dropped() {
+    // A 70 × 50 × 40 mm block flat on the table: only its top is seen as a face, < 1000 px.
+    let s = Scene::new();
+    let right = Vector3::x();
+    let fwd = s.up.cross(&right).normalize();
+    let size = Vector3::new(70.0, 50.0, 40.0);
+    let tile = OrientedBox {
+        rotation: Rotation3::from_matrix_unchecked(nalgebra::Matrix3::from_columns(&[
+            right, fwd, s.up,
+        ])),
+        center_mm: s.on_table(80.0, 0.0, size.z / 2.0),
+        size_mm: size,
+    };
+    let (rgb, depth, owner) = s.render(&[Obj::Cuboid(tile)]);
+    let gt = mask_of(&owner, 0);
+    let found = |cfg: &DetectConfig| {
+        detect_boxes(Some(&rgb), &depth, &k(), cfg)
+            .unwrap()
+            .iter()
+            .filter(|d| iou(&d.mask, &gt) > 0.3)
+            .map(|d| (d.n_faces, d.mask.count()))
+            .collect::<Vec<_>>()
+    };
+    let all = found(&DetectConfig {
+        one_face_min_pixels: 0,
+        ..DetectConfig::default()
+    });
+    assert!(
+        all.iter().any(|&(f, n)| f == 1 && n < 1000),
+        "without the limit the tile's top is a lone-face detection: {all:?}"
+    );
+    let kept = found(&DetectConfig::default());
+    assert!(kept.is_empty(), "{kept:?}");
+}
