@@ -12,7 +12,12 @@
 //!    depth edges, where a sensor interpolates between the box and the background). Implemented
 //!    as "more than half of the valid 3×3 neighbourhood (itself included) lies within the
 //!    tolerance", which is the median test without a sort;
-//! 2. *far outliers*: a robust distance-to-centroid cut — points farther from the component-wise
+//! 2. *depth fragments*: the mask is split into pieces joined through 4-neighbours within the
+//!    flying-pixel tolerance; a piece smaller than `fragment_max_fraction` of the largest that
+//!    borders a larger piece across a depth jump is a leak onto another surface (the background
+//!    past a box's rim, a neighbour) and is dropped. Pieces set apart by holes or by pixels
+//!    outside the mask (the box seen past an occluder) stay;
+//! 3. *far outliers*: a robust distance-to-centroid cut — points farther from the component-wise
 //!    median than `median(d) + outlier_k · 1.4826 · MAD(d)` are dropped (segmentation leaks).
 //!
 //! Normals: the "average 3D gradient" estimator (as PCL's integral-image normals): with integral
@@ -45,6 +50,11 @@ pub struct ObservationConfig {
     /// Flying-pixel cut, relative part (fraction of the pixel's depth). Default 0.03 (3 %: a face
     /// at 80° to the view ray changes depth by ~1 % of z per pixel at 600 px focal length).
     pub flying_rel: f64,
+    /// Depth fragments: the mask's pixels are split into pieces connected through 4-neighbours
+    /// whose depths differ by at most the flying-pixel tolerance; pieces with fewer points than
+    /// this fraction of the largest piece are dropped (a strip of the surface behind a box's rim,
+    /// or of a neighbour, caught by the segmenter). Default 0.1; 0 disables it.
+    pub fragment_max_fraction: f64,
     /// Robust distance-to-centroid cut in MAD units. Default 3.5. Non-positive disables it.
     pub outlier_k: f64,
     /// Normal-estimation window radius, px (half-windows of `(2r+1) × r` px). Default 3.
@@ -85,6 +95,7 @@ impl Default for ObservationConfig {
             min_points: 30,
             flying_abs_mm: 10.0,
             flying_rel: 0.03,
+            fragment_max_fraction: 0.1,
             outlier_k: 3.5,
             normal_radius_px: 3,
             max_subsample: 400,
@@ -455,6 +466,90 @@ pub(crate) fn check_sizes(depth: &DepthMap, mask: &Mask) -> Result<(), EstimateE
     Ok(())
 }
 
+/// Drops the depth fragments of `keep` (see [`ObservationConfig::fragment_max_fraction`]).
+/// `z` and `keep` cover the mask's `bw × bh` bounding box.
+fn drop_fragments(z: &[f32], keep: &mut [bool], bw: usize, bh: usize, cfg: &ObservationConfig) {
+    let tol = |a: f32| cfg.flying_abs_mm.max(cfg.flying_rel * a as f64) as f32;
+    // Flood fill; `label[i]` is the 1-based piece of pixel i (0 = not kept).
+    let mut label = vec![0u32; bw * bh];
+    let mut sizes = vec![0usize];
+    let mut stack = Vec::new();
+    for start in 0..bw * bh {
+        if !keep[start] || label[start] != 0 {
+            continue;
+        }
+        let id = sizes.len() as u32;
+        label[start] = id;
+        stack.push(start);
+        let mut n = 0usize;
+        while let Some(i) = stack.pop() {
+            n += 1;
+            let (r, k) = (i / bw, i % bw);
+            let mut visit = |j: usize| {
+                if keep[j] && label[j] == 0 && (z[j] - z[i]).abs() <= tol(z[i].max(z[j])) {
+                    label[j] = id;
+                    stack.push(j);
+                }
+            };
+            if k > 0 {
+                visit(i - 1);
+            }
+            if k + 1 < bw {
+                visit(i + 1);
+            }
+            if r > 0 {
+                visit(i - bw);
+            }
+            if r + 1 < bh {
+                visit(i + bw);
+            }
+        }
+        sizes.push(n);
+    }
+    if sizes.len() <= 2 {
+        return;
+    }
+    // A piece is a leak only where it borders a larger piece (within 2 px: the flying-pixel
+    // cut thins the seam) across a depth jump. A piece set apart by pixels outside the mask is
+    // the box seen past an occluder, and its extent counts.
+    let mut beside_larger = vec![false; sizes.len()];
+    for i in 0..bw * bh {
+        let l = label[i] as usize;
+        if l == 0 {
+            continue;
+        }
+        let (r, k) = (i / bw, i % bw);
+        for (dr, dk) in [(0, 1), (0, 2), (1, 0), (2, 0)] {
+            let (rr, kk) = (r + dr, k + dk);
+            if rr >= bh || kk >= bw {
+                continue;
+            }
+            let j = rr * bw + kk;
+            let m = label[j] as usize;
+            // A depth jump between the two, and no hole between them (a pixel two away
+            // counts only across a flying pixel, which has depth).
+            let across = m != 0
+                && m != l
+                && (z[j] - z[i]).abs() > tol(z[i].max(z[j]))
+                && (dr + dk == 1 || z[(r + dr / 2) * bw + k + dk / 2] > 0.0);
+            if across {
+                if sizes[m] > sizes[l] {
+                    beside_larger[l] = true;
+                } else if sizes[l] > sizes[m] {
+                    beside_larger[m] = true;
+                }
+            }
+        }
+    }
+    let largest = sizes.iter().copied().max().unwrap_or(0);
+    let min = (cfg.fragment_max_fraction * largest as f64).ceil() as usize;
+    for (k, &l) in keep.iter_mut().zip(&label) {
+        if *k && sizes[l as usize] < min && beside_larger[l as usize] {
+            *k = false;
+        }
+    }
+}
+
 /// Builds the [`Observation`] of one masked instance (see the module docs for the filters).
 ///
 /// Errors: [`EstimateError::SizeMismatch`] / [`EstimateError::BadBuffer`] when mask and depth
@@ -515,6 +610,10 @@ pub fn observe(
             }
             keep[r * bw + k] = 2 * close > n;
         }
+    }
+
+    if cfg.fragment_max_fraction > 0.0 {
+        drop_fragments(&z_box, &mut keep, bw, bh, cfg);
     }
 
     let kept = keep.iter().filter(|k| **k).count();
@@ -860,6 +959,63 @@ mod tests {
             }
         }
         assert_eq!(trim_support_leak(&depth, &kk, &table, &cfg), None);
+    }
+
+    #[test]
+    fn leaks_across_depth_jumps_go_but_pieces_past_occluders_and_holes_stay() {
+        let kk = k();
+        let mut depth = DepthMap::zeros(64, 48);
+        let mut mask = Mask::empty(64, 48);
+        let mut put = |u: u32, v: u32, z: f32, m: bool| {
+            depth.depth_mm[(v * 64 + u) as usize] = z;
+            mask.set(u, v, m);
+        };
+        // A 30 × 28 px face at 800 mm.
+        for v in 10..38 {
+            for u in 10..40 {
+                put(u, v, 800.0, true);
+            }
+        }
+        // Leak: two rows (60 px, under a tenth of the face) of the surface 150 mm behind, just
+        // above the face.
+        for v in 8..10 {
+            for u in 10..40 {
+                put(u, v, 950.0, true);
+            }
+        }
+        // An occluder (not in the mask), then two columns of the same face past it.
+        for v in 10..38 {
+            for u in 40..44 {
+                put(u, v, 500.0, false);
+            }
+            for u in 44..46 {
+                put(u, v, 800.0, true);
+            }
+        }
+        // A lone valid pixel in a hole of the face.
+        for v in 19..22 {
+            for u in 24..27 {
+                put(u, v, 0.0, true);
+            }
+        }
+        put(25, 20, 805.0, true);
+        // The far-outlier cut off, so that only this stage decides.
+        let cfg = ObservationConfig {
+            outlier_k: 0.0,
+            ..ObservationConfig::default()
+        };
+        let obs = observe(&depth, &kk, &mask, &cfg).unwrap();
+        let has = |f: &dyn Fn(&[u32; 2]) -> bool| obs.pixels.iter().any(f);
+        assert!(!has(&|p| p[1] < 10), "the leak is dropped");
+        assert!(has(&|p| p[0] >= 44), "the piece past the occluder stays");
+        assert!(has(&|p| *p == [25, 20]), "the pixel in the hole stays");
+        // Off: the leak stays.
+        let off = ObservationConfig {
+            fragment_max_fraction: 0.0,
+            ..cfg
+        };
+        let obs = observe(&depth, &kk, &mask, &off).unwrap();
+        assert!(obs.pixels.iter().any(|p| p[1] < 10));
     }
 
     #[test]
