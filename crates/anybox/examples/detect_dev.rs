@@ -361,9 +361,18 @@ fn main() {
                                 (i, b.visib_fract)
                             })
                             .fold((0.0, 0.0), |a, x| if x.0 > a.0 { x } else { a });
+                        let (es, obs) = est_d[j].as_ref().map_or((-1.0, 0), |e| {
+                            (e.score, e.observed_axes.iter().filter(|o| **o).count())
+                        });
                         println!(
-                            "  d3 score {:.3} faces {} iou3d {:.2} visib {:.2}",
-                            d.score, d.n_faces, best.0, best.1
+                            "  d3 {name} s{s} score {:.3} faces {} px {} est {:.3} obs {} iou3d {:.2} visib {:.2}",
+                            d.score,
+                            d.n_faces,
+                            d.mask.count(),
+                            es,
+                            obs,
+                            best.0,
+                            best.1
                         );
                     }
                 }
@@ -397,20 +406,35 @@ fn main() {
                     if j != usize::MAX && std::env::var("DIFF").is_ok() {
                         // Pixels only in the detection / only in the GT mask.
                         let (mut d_only, mut g_only, mut d_only_valid) = (0, 0, 0);
+                        let (mut z_only, mut z_both) = (Vec::new(), Vec::new());
                         for (i, (&a, &c)) in masks[j].data.iter().zip(&gtm[k].data).enumerate() {
+                            if a && c && v.depth.depth_mm[i] > 0.0 {
+                                z_both.push(v.depth.depth_mm[i]);
+                            }
                             if a && !c {
                                 d_only += 1;
                                 if v.depth.depth_mm[i] > 0.0 {
                                     d_only_valid += 1;
+                                    z_only.push(v.depth.depth_mm[i]);
                                 }
                             }
                             if c && !a {
                                 g_only += 1;
                             }
                         }
+                        let q = |mut z: Vec<f32>| {
+                            z.sort_by(|a, b| a.total_cmp(b));
+                            if z.is_empty() {
+                                return String::from("-");
+                            }
+                            let at = |f: f64| z[((z.len() - 1) as f64 * f) as usize];
+                            format!("{:.0}/{:.0}/{:.0}", at(0.1), at(0.5), at(0.9))
+                        };
                         println!(
-                            "  diff s{s} gt {k}: det-only {d_only} (valid depth {d_only_valid}) gt-only {g_only} of gt {}",
-                            gtm[k].count()
+                            "  diff s{s} gt {k}: det-only {d_only} (valid depth {d_only_valid}) gt-only {g_only} of gt {}; depth p10/50/90 det-only {} shared {}",
+                            gtm[k].count(),
+                            q(z_only),
+                            q(z_both)
                         );
                         let show = |e: &Result<anybox::pipeline::BoxEstimate, _>| match e {
                             Ok(e) => format!(
