@@ -72,14 +72,19 @@ pub(crate) fn support_mask(
                 && surfaces[r].inlier_frac >= cfg.min_plane_inlier_frac
         })
         .collect();
-    let tests: Vec<(bool, bool)> = big
-        .par_iter()
-        .map(|&r| support_tests(g, &surfaces[r], &members[r], cfg))
-        .collect();
+    // The surfaces' tests and the RANSAC planes are independent.
+    let (tests, ransac): (Vec<(bool, bool)>, _) = rayon::join(
+        || {
+            big.par_iter()
+                .map(|&r| support_tests(g, &surfaces[r], &members[r], cfg))
+                .collect()
+        },
+        || ransac_planes(g, cfg),
+    );
     for (&r, (strong, standing)) in big.iter().zip(tests) {
         cands.push((Some(r), surfaces[r].clone(), strong, standing));
     }
-    for (reg, strong, standing) in ransac_planes(g, cfg) {
+    for (reg, strong, standing) in ransac {
         cands.push((None, reg, strong, standing));
     }
     // "Up": the normal of the largest plane that bounds the scene (the floor). Things stand on
