@@ -15,6 +15,24 @@ use anybox::detect::{detect_boxes, DetectConfig, Detection};
 use anybox::io::Mask;
 use anybox::synth::{generate_view, Layout, NoiseModel, SynthConfig};
 
+/// Detections of one frame and the time taken, ms: detection alone, or with `EST=1` the whole
+/// frame (detection plus estimation of every detected box).
+fn detect_timed(
+    rgb: Option<&image::RgbImage>,
+    depth: &anybox::io::DepthMap,
+    k: &anybox::geom::Intrinsics,
+    cfg: &DetectConfig,
+) -> (Vec<Detection>, f64) {
+    let t0 = Instant::now();
+    let dets = detect_boxes(rgb, depth, k, cfg).expect("detect");
+    if std::env::var("EST").is_ok() {
+        let masks: Vec<Mask> = dets.iter().map(|d| d.mask.clone()).collect();
+        let _ =
+            anybox::pipeline::estimate_frame(depth, k, &masks, &anybox::config::Config::default());
+    }
+    (dets, t0.elapsed().as_secs_f64() * 1e3)
+}
+
 #[derive(Default)]
 struct Tally {
     n_gt: usize,
@@ -321,19 +339,7 @@ fn main() {
         let mut tally = Tally::default();
         for s in 0..n_views {
             let v = generate_view(&sc, s, 0);
-            let t0 = Instant::now();
-            let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg).expect("detect");
-            if std::env::var("EST").is_ok() {
-                // Whole-frame time: segmentation plus estimation of every detected box.
-                let masks: Vec<Mask> = dets.iter().map(|d| d.mask.clone()).collect();
-                let _ = anybox::pipeline::estimate_frame(
-                    &v.depth,
-                    &v.intrinsics,
-                    &masks,
-                    &anybox::config::Config::default(),
-                );
-            }
-            let ms = t0.elapsed().as_secs_f64() * 1e3;
+            let (dets, ms) = detect_timed(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg);
             if std::env::var("EST3D").is_ok() {
                 // Per GT (visib ≥ 0.5): best detection mask IoU, and the 3D IoU of the estimate
                 // from that detection's mask versus from the GT mask.
@@ -524,18 +530,8 @@ fn main() {
         let mut tally = Tally::default();
         for (vi, view) in ds.views.iter().enumerate() {
             let f = view.load_frame().expect("frame");
-            let t0 = Instant::now();
-            let dets = detect_boxes(f.rgb.as_ref(), &f.depth, &f.intrinsics, &cfg).expect("detect");
-            if std::env::var("EST").is_ok() {
-                let masks: Vec<Mask> = dets.iter().map(|d| d.mask.clone()).collect();
-                let _ = anybox::pipeline::estimate_frame(
-                    &f.depth,
-                    &f.intrinsics,
-                    &masks,
-                    &anybox::config::Config::default(),
-                );
-            }
-            tally.times_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+            let (dets, ms) = detect_timed(f.rgb.as_ref(), &f.depth, &f.intrinsics, &cfg);
+            tally.times_ms.push(ms);
             let gts: Vec<(Mask, f64)> = (0..view.gts.len())
                 .map(|i| (view.load_mask_visib(i).expect("mask"), 1.0))
                 .collect();

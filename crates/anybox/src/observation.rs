@@ -51,9 +51,11 @@ pub struct ObservationConfig {
     /// at 80° to the view ray changes depth by ~1 % of z per pixel at 600 px focal length).
     pub flying_rel: f64,
     /// Depth fragments: the mask's pixels are split into pieces connected through 4-neighbours
-    /// whose depths differ by at most the flying-pixel tolerance; pieces with fewer points than
-    /// this fraction of the largest piece are dropped (a strip of the surface behind a box's rim,
-    /// or of a neighbour, caught by the segmenter). Default 0.1; 0 disables it.
+    /// whose depths differ by at most the flying-pixel tolerance; a piece with fewer points than
+    /// this fraction of the largest piece is dropped when it borders a larger piece across a
+    /// depth jump (a strip of the surface behind a box's rim, or of a neighbour, caught by the
+    /// segmenter). Pieces set apart by holes or by pixels outside the mask stay. Default 0.1;
+    /// 0 disables it.
     pub fragment_max_fraction: f64,
     /// Robust distance-to-centroid cut in MAD units. Default 3.5. Non-positive disables it.
     pub outlier_k: f64,
@@ -87,6 +89,13 @@ pub struct ObservationConfig {
     pub leak_tol_mm: f64,
     /// Plane tolerance: part relative to depth. Default 0.01.
     pub leak_tol_rel: f64,
+}
+
+impl ObservationConfig {
+    /// The flying-pixel tolerance at depth `z_mm`: `max(flying_abs_mm, flying_rel · z)`, mm.
+    fn flying_tol_mm(&self, z_mm: f32) -> f32 {
+        self.flying_abs_mm.max(self.flying_rel * z_mm as f64) as f32
+    }
 }
 
 impl Default for ObservationConfig {
@@ -469,7 +478,6 @@ pub(crate) fn check_sizes(depth: &DepthMap, mask: &Mask) -> Result<(), EstimateE
 /// Drops the depth fragments of `keep` (see [`ObservationConfig::fragment_max_fraction`]).
 /// `z` and `keep` cover the mask's `bw × bh` bounding box.
 fn drop_fragments(z: &[f32], keep: &mut [bool], bw: usize, bh: usize, cfg: &ObservationConfig) {
-    let tol = |a: f32| cfg.flying_abs_mm.max(cfg.flying_rel * a as f64) as f32;
     // Flood fill; `label[i]` is the 1-based piece of pixel i (0 = not kept).
     let mut label = vec![0u32; bw * bh];
     let mut sizes = vec![0usize];
@@ -486,7 +494,10 @@ fn drop_fragments(z: &[f32], keep: &mut [bool], bw: usize, bh: usize, cfg: &Obse
             n += 1;
             let (r, k) = (i / bw, i % bw);
             let mut visit = |j: usize| {
-                if keep[j] && label[j] == 0 && (z[j] - z[i]).abs() <= tol(z[i].max(z[j])) {
+                if keep[j]
+                    && label[j] == 0
+                    && (z[j] - z[i]).abs() <= cfg.flying_tol_mm(z[i].max(z[j]))
+                {
                     label[j] = id;
                     stack.push(j);
                 }
@@ -530,7 +541,7 @@ fn drop_fragments(z: &[f32], keep: &mut [bool], bw: usize, bh: usize, cfg: &Obse
             // counts only across a flying pixel, which has depth).
             let across = m != 0
                 && m != l
-                && (z[j] - z[i]).abs() > tol(z[i].max(z[j]))
+                && (z[j] - z[i]).abs() > cfg.flying_tol_mm(z[i].max(z[j]))
                 && (dr + dk == 1 || z[(r + dr / 2) * bw + k + dk / 2] > 0.0);
             if across {
                 if sizes[m] > sizes[l] {
@@ -595,7 +606,7 @@ pub fn observe(
             }
             // |z − median(3×3 in-mask valid)| ≤ tol ⇔ (up to ties) at least half of the valid
             // neighbourhood lies within tol of z; counting avoids a sort per pixel.
-            let tol = cfg.flying_abs_mm.max(cfg.flying_rel * z as f64) as f32;
+            let tol = cfg.flying_tol_mm(z);
             let (mut n, mut close) = (0u32, 0u32);
             for rr in r.saturating_sub(1)..(r + 2).min(bh) {
                 for kk in k.saturating_sub(1)..(k + 2).min(bw) {

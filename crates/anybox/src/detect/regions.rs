@@ -354,15 +354,9 @@ pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig
             let eig = SymmetricEigen::new(cov);
             let mut idx = [0usize, 1, 2];
             idx.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
-            // The first smallest eigenvalue (ties: the lowest index, as an empty region's
-            // zero covariance has).
-            let mut k = 0;
-            for j in 1..3 {
-                if eig.eigenvalues[j] < eig.eigenvalues[k] {
-                    k = j;
-                }
-            }
-            let mut normal: Vector3<f64> = eig.eigenvectors.column(k).into_owned();
+            // `imin`: the first smallest eigenvalue (an empty region's zero covariance ties).
+            let mut normal: Vector3<f64> =
+                eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
             if normal.norm() < 1e-9 || !normal.iter().all(|x| x.is_finite()) {
                 normal = Vector3::z();
             }
