@@ -97,16 +97,24 @@ impl Mask {
 
     /// Pixel bounding box `(u_min, v_min, u_max, v_max)`, inclusive; `None` for an empty mask.
     pub fn bbox(&self) -> Option<(u32, u32, u32, u32)> {
+        // Row by row: the first and last set pixel of each row (the estimator calls this per
+        // hidden axis on full-frame masks, where a per-pixel min/max was a tenth of its time).
+        let w = self.width as usize;
+        if w == 0 {
+            return None;
+        }
         let mut bb: Option<(u32, u32, u32, u32)> = None;
-        for v in 0..self.height {
-            for u in 0..self.width {
-                if self.data[v as usize * self.width as usize + u as usize] {
-                    bb = Some(match bb {
-                        None => (u, v, u, v),
-                        Some((a, b, c, d)) => (a.min(u), b.min(v), c.max(u), d.max(v)),
-                    });
-                }
-            }
+        for (v, row) in self.data.chunks_exact(w).enumerate() {
+            let Some(first) = row.iter().position(|&b| b) else {
+                continue;
+            };
+            // A set pixel exists, so `rposition` finds one too (at or after `first`).
+            let last = row.iter().rposition(|&b| b).unwrap_or(first);
+            let (u0, u1, v) = (first as u32, last as u32, v as u32);
+            bb = Some(match bb {
+                None => (u0, v, u1, v),
+                Some((a, b, c, _)) => (a.min(u0), b, c.max(u1), v),
+            });
         }
         bb
     }

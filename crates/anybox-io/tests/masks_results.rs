@@ -89,6 +89,20 @@ proptest! {
     }
 
     #[test]
+    fn bbox_matches_a_brute_force_scan(m in arb_mask()) {
+        let mut bb: Option<(u32, u32, u32, u32)> = None;
+        for v in 0..m.height {
+            for u in 0..m.width {
+                if m.get(u, v) {
+                    let (a, b, c, d) = bb.unwrap_or((u, v, u, v));
+                    bb = Some((a.min(u), b.min(v), c.max(u), d.max(v)));
+                }
+            }
+        }
+        prop_assert_eq!(m.bbox(), bb);
+    }
+
+    #[test]
     fn rle_string_round_trip(counts in prop::collection::vec(0u64..5_000_000, 0..40)) {
         let s = counts_to_rle_string(&counts);
         prop_assert!(s.bytes().all(|b| (48..112).contains(&b)));
