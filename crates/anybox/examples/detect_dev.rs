@@ -3,7 +3,7 @@
 //!
 //! `cargo run --release -p anybox --example detect_dev -- [views-per-config] [dump-dir]`
 //! Env: `SEED=<u64>` (default 7), `ONLY=<layout>`, `NOISE=none`, `DETECT_CFG=<json>`, `LABELS=1`,
-//! `EST=1`, `VERBOSE=1`.
+//! `EST=1`, `VERBOSE=1`, `VIEW=<index>` (one view only).
 //! A GT box counts when its visible fraction is ≥ 0.5; a detection is a true positive when its
 //! mask IoU with an unmatched such GT is > 0.5 (greedy in score order); detections matching a
 //! GT with lower visibility are ignored (neither TP nor FP).
@@ -337,7 +337,11 @@ fn main() {
             ..SynthConfig::default()
         };
         let mut tally = Tally::default();
+        let view: Option<u32> = std::env::var("VIEW").ok().and_then(|x| x.parse().ok());
         for s in 0..n_views {
+            if view.is_some_and(|x| x != s) {
+                continue;
+            }
             let v = generate_view(&sc, s, 0);
             let (dets, ms) = detect_timed(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg);
             if std::env::var("EST3D").is_ok() {
@@ -367,11 +371,19 @@ fn main() {
                                 (i, b.visib_fract)
                             })
                             .fold((0.0, 0.0), |a, x| if x.0 > a.0 { x } else { a });
+                        let t_est = Instant::now();
+                        let _ = anybox::pipeline::estimate_box(
+                            &v.depth,
+                            &v.intrinsics,
+                            &d.mask,
+                            &cfg_e,
+                        );
+                        let est_ms = t_est.elapsed().as_secs_f64() * 1e3;
                         let (es, obs) = est_d[j].as_ref().map_or((-1.0, 0), |e| {
                             (e.score, e.observed_axes.iter().filter(|o| **o).count())
                         });
                         println!(
-                            "  d3 {name} s{s} score {:.3} faces {} px {} est {:.3} obs {} iou3d {:.2} visib {:.2}",
+                            "  d3 {name} s{s} score {:.3} faces {} px {} est {:.3} obs {} iou3d {:.2} visib {:.2} ms {est_ms:.1}",
                             d.score,
                             d.n_faces,
                             d.mask.count(),
