@@ -230,6 +230,15 @@ fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], objs: Option<&[u32]>, ta
     }
 }
 
+fn mask_iou(a: &Mask, b: &Mask) -> f64 {
+    let (mut i, mut u) = (0usize, 0usize);
+    for (&x, &y) in a.data.iter().zip(&b.data) {
+        i += (x && y) as usize;
+        u += (x || y) as usize;
+    }
+    i as f64 / u.max(1) as f64
+}
+
 fn dump(path: &Path, rgb: &image::RgbImage, dets: &[Detection], gts: &[(Mask, f64)]) {
     let mut img = rgb.clone();
     let w = img.width();
@@ -493,6 +502,65 @@ fn main() {
                     println!(
                         "  3d {name} s{s} gt {k} visib {:.2} size {:.0}x{:.0}x{:.0} mask-iou {miou:.2} iou3d det {d3:.2} gt {:.2} alone det {d1:.2} gt {g1:.2}",
                         b.visib_fract, b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z, i3(&est_g[k])
+                    );
+                }
+            }
+            if std::env::var("POOL").is_ok() {
+                // Per counted GT: best mask IoU of the final detections, and of each level of
+                // the candidate pool (cells only, before selection and fill).
+                let pool =
+                    anybox::detect::candidate_pool(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg)
+                        .expect("pool");
+                for (k, b) in v.boxes.iter().enumerate() {
+                    if b.visib_fract < 0.5 {
+                        continue;
+                    }
+                    let fin = best_mask_iou(&dets, &b.mask_visib).map_or(0.0, |x| x.1);
+                    let mut best = [(0.0f64, 0.0f64, 0u8); 3];
+                    for (src, d) in &pool {
+                        let l = match src {
+                            'o' => 0,
+                            's' => 1,
+                            _ => 2,
+                        };
+                        let iou = mask_iou(&d.mask, &b.mask_visib);
+                        if iou > best[l].0 {
+                            best[l] = (iou, d.score, d.n_faces);
+                        }
+                    }
+                    // Share of the GT's pixels in regions that lie ≥ 80 % inside it (pure
+                    // faces), per label level (surfaces, colour patches).
+                    let pure = |lab: &[u32]| {
+                        let mut inside: std::collections::HashMap<u32, (usize, usize)> =
+                            Default::default();
+                        for (i, &l) in lab.iter().enumerate() {
+                            if l == u32::MAX {
+                                continue;
+                            }
+                            let e = inside.entry(l).or_insert((0, 0));
+                            e.1 += 1;
+                            if b.mask_visib.data[i] {
+                                e.0 += 1;
+                            }
+                        }
+                        let n: usize = inside
+                            .values()
+                            .filter(|(a, t)| *a as f64 >= 0.8 * *t as f64)
+                            .map(|(a, _)| a)
+                            .sum();
+                        n as f64 / b.mask_visib.count().max(1) as f64
+                    };
+                    let labs =
+                        anybox::detect::segment_labels(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg)
+                            .expect("labels");
+                    println!(
+                        "  pure {name} s{s} gt {k} final {fin:.2} geo {:.2} col {:.2}",
+                        pure(&labs[0]),
+                        pure(&labs[1])
+                    );
+                    println!(
+                        "  pool {name} s{s} gt {k} final {fin:.2} obj {:.2} ({:.2},{}) surf {:.2} ({:.2},{}) col {:.2} ({:.2},{})",
+                        best[0].0, best[0].1, best[0].2, best[1].0, best[1].1, best[1].2, best[2].0, best[2].1, best[2].2
                     );
                 }
             }

@@ -371,44 +371,14 @@ pub fn detect_boxes(
     validate(rgb, depth, intrinsics)?;
     let (w, h) = (depth.width, depth.height);
     let g = grid::Grid::build(rgb, depth, intrinsics, cfg);
-    let joins = regions::joins(&g, rgb.is_some(), &g.seam, cfg);
-    // Two levels: smooth surfaces regardless of colour (a box face with its tape, labels and
-    // print), and colour-uniform patches (which separate flush cartons).
-    let (geo_labels, surfaces) = regions::segment(&g, &joins, Cues::Geometry, None, cfg);
-    let (on_support, planes) = boxes::support_mask(&g, &geo_labels, &surfaces, cfg);
-    // Segment again without the support cells: what leaked into a support becomes its own.
-    // Surfaces, colour patches and objects are independent from here: built in parallel.
-    let (geo, (col, (off, objects))) = rayon::join(
-        || {
-            let (labels, surfaces) =
-                regions::segment(&g, &joins, Cues::Geometry, Some(&on_support), cfg);
-            let c = boxes::group_candidates(&g, &labels, &surfaces, &on_support, cfg);
-            boxes::drop_support_fragments(&g, c, &planes, cfg)
-        },
-        || {
-            rayon::join(
-                || {
-                    let (mut labels, patches) =
-                        regions::segment(&g, &joins, Cues::All, Some(&on_support), cfg);
-                    let n_patches = regions::bridge_tape(&g, &mut labels, &patches, cfg);
-                    let patches = regions::fit_regions(&g, &labels, n_patches, cfg);
-                    let c = boxes::group_candidates(&g, &labels, &patches, &on_support, cfg);
-                    boxes::drop_support_fragments(&g, c, &planes, cfg)
-                },
-                || {
-                    let (obj_labels, off, n_obj) =
-                        object_labels(&g, &joins, &on_support, &planes, cfg);
-                    let objects = if cfg.blobs {
-                        let c = blobs::blob_candidates(&g, &obj_labels, n_obj, &off, cfg);
-                        boxes::drop_support_fragments(&g, c, &planes, cfg)
-                    } else {
-                        Vec::new()
-                    };
-                    (off, objects)
-                },
-            )
-        },
-    );
+    let Pool {
+        objects,
+        geo,
+        col,
+        on_support,
+        off,
+        planes,
+    } = pool(&g, rgb.is_some(), cfg);
     let chosen = select(&g, objects, geo, col, cfg);
     // Support cells, and cells next to a support facing like it, are never filled in: at a
     // box's foot they lie inside its silhouette at about its depth, and the estimator would
@@ -449,6 +419,109 @@ pub fn detect_boxes(
             })
         })
         .collect();
+    Ok(out)
+}
+
+/// The candidates of the three segmentations, before selection, and what selection and fill
+/// need of the support analysis.
+struct Pool {
+    /// Connected objects (depth continuity, cut at creases and steps).
+    objects: Vec<boxes::Raw>,
+    /// Groups of smooth surfaces.
+    geo: Vec<boxes::Raw>,
+    /// Groups of colour-uniform patches.
+    col: Vec<boxes::Raw>,
+    /// Support cells (floors, tables, shelf boards).
+    on_support: Vec<bool>,
+    /// Cells cut off every object (near a support).
+    off: Vec<bool>,
+    /// Support planes.
+    planes: Vec<regions::Region>,
+}
+
+fn pool(g: &grid::Grid, has_rgb: bool, cfg: &DetectConfig) -> Pool {
+    let joins = regions::joins(g, has_rgb, &g.seam, cfg);
+    // Two levels: smooth surfaces regardless of colour (a box face with its tape, labels and
+    // print), and colour-uniform patches (which separate flush cartons).
+    let (geo_labels, surfaces) = regions::segment(g, &joins, Cues::Geometry, None, cfg);
+    let (on_support, planes) = boxes::support_mask(g, &geo_labels, &surfaces, cfg);
+    // Segment again without the support cells: what leaked into a support becomes its own.
+    // Surfaces, colour patches and objects are independent from here: built in parallel.
+    let (geo, (col, (off, objects))) = rayon::join(
+        || {
+            let (labels, surfaces) =
+                regions::segment(g, &joins, Cues::Geometry, Some(&on_support), cfg);
+            let c = boxes::group_candidates(g, &labels, &surfaces, &on_support, cfg);
+            boxes::drop_support_fragments(g, c, &planes, cfg)
+        },
+        || {
+            rayon::join(
+                || {
+                    let (mut labels, patches) =
+                        regions::segment(g, &joins, Cues::All, Some(&on_support), cfg);
+                    let n_patches = regions::bridge_tape(g, &mut labels, &patches, cfg);
+                    let patches = regions::fit_regions(g, &labels, n_patches, cfg);
+                    let c = boxes::group_candidates(g, &labels, &patches, &on_support, cfg);
+                    boxes::drop_support_fragments(g, c, &planes, cfg)
+                },
+                || {
+                    let (obj_labels, off, n_obj) =
+                        object_labels(g, &joins, &on_support, &planes, cfg);
+                    let objects = if cfg.blobs {
+                        let c = blobs::blob_candidates(g, &obj_labels, n_obj, &off, cfg);
+                        boxes::drop_support_fragments(g, c, &planes, cfg)
+                    } else {
+                        Vec::new()
+                    };
+                    (off, objects)
+                },
+            )
+        },
+    );
+    Pool {
+        objects,
+        geo,
+        col,
+        on_support,
+        off,
+        planes,
+    }
+}
+
+/// Diagnostic view of the candidate pool: every object-level (`'o'`), surface-level (`'s'`)
+/// and colour-level (`'p'`) candidate before selection, as a mask of its own cells (no fill),
+/// with its score and face count. For tuning the selection; [`detect_boxes`] validates the
+/// same way.
+pub fn candidate_pool(
+    rgb: Option<&RgbImage>,
+    depth: &DepthMap,
+    intrinsics: &Intrinsics,
+    cfg: &DetectConfig,
+) -> Result<Vec<(char, Detection)>, DetectError> {
+    validate(rgb, depth, intrinsics)?;
+    let g = grid::Grid::build(rgb, depth, intrinsics, cfg);
+    let p = pool(&g, rgb.is_some(), cfg);
+    let (fw, fh) = (depth.width as usize, depth.height as usize);
+    let to_mask = |c: &boxes::Raw| {
+        let mut mask = Mask::empty(depth.width, depth.height);
+        for &cell in &c.cells {
+            let (gu, gv) = (cell as usize % g.w, cell as usize / g.w);
+            for v in gv * g.step..((gv + 1) * g.step).min(fh) {
+                for u in gu * g.step..((gu + 1) * g.step).min(fw) {
+                    mask.data[v * fw + u] = true;
+                }
+            }
+        }
+        Detection {
+            mask,
+            score: c.score,
+            n_faces: c.n_faces,
+        }
+    };
+    let mut out = Vec::new();
+    for (src, list) in [('o', &p.objects), ('s', &p.geo), ('p', &p.col)] {
+        out.extend(list.iter().map(|c| (src, to_mask(c))));
+    }
     Ok(out)
 }
 
