@@ -222,6 +222,45 @@ fn box_on_table_is_found_with_its_faces() {
 }
 
 #[test]
+fn candidate_pool_holds_the_box_at_every_level_and_the_detection_comes_from_it() {
+    let s = Scene::new();
+    let (rgb, depth, owner) = s.render(&[Obj::Cuboid(table_box(&s))]);
+    let cfg = DetectConfig::default();
+    let pool = candidate_pool(Some(&rgb), &depth, &k(), &cfg).unwrap();
+    let gt = mask_of(&owner, 0);
+    // Cells only (no fill): a little under the final mask, well over half of the box.
+    for level in ['o', 's', 'p'] {
+        let best = pool
+            .iter()
+            .filter(|(src, _)| *src == level)
+            .map(|(_, d)| iou(&d.mask, &gt))
+            .fold(0.0, f64::max);
+        assert!(best > 0.7, "level {level}: best mask IoU {best}");
+    }
+    // The chosen detection is one of the pool's candidates (same score), filled out.
+    let dets = detect_boxes(Some(&rgb), &depth, &k(), &cfg).unwrap();
+    let d = &dets[0];
+    let src = pool
+        .iter()
+        .find(|(_, c)| c.score == d.score && c.n_faces == d.n_faces)
+        .expect("the detection is a pool candidate");
+    // Fill only adds cells; the final mask drops just the pixels well behind their cell (the
+    // background past the box's rim).
+    let kept = src
+        .1
+        .mask
+        .data
+        .iter()
+        .zip(&d.mask.data)
+        .filter(|(&c, &m)| c && m)
+        .count();
+    assert!(kept as f64 >= 0.97 * src.1.mask.count() as f64);
+    // Bad frames fail the same way as detection.
+    let bad = DepthMap::zeros(W, H);
+    assert!(candidate_pool(Some(&rgb), &bad, &k(), &cfg).is_err());
+}
+
+#[test]
 fn empty_table_gives_no_boxes() {
     let s = Scene::new();
     let (rgb, depth, _) = s.render(&[]);
