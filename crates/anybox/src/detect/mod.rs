@@ -371,20 +371,13 @@ pub fn detect_boxes(
     validate(rgb, depth, intrinsics)?;
     let (w, h) = (depth.width, depth.height);
     let g = grid::Grid::build(rgb, depth, intrinsics, cfg);
-    let Pool {
-        objects,
-        geo,
-        col,
-        on_support,
-        off,
-        planes,
-    } = pool(&g, rgb.is_some(), cfg);
-    let chosen = select(&g, objects, geo, col, cfg);
+    let p = pool(&g, rgb.is_some(), cfg);
+    let chosen = select(&g, p.objects, p.geo, p.col, cfg);
     // Support cells, and cells next to a support facing like it, are never filled in: at a
     // box's foot they lie inside its silhouette at about its depth, and the estimator would
     // take them for the box. (The box's own foot, cut off its object, faces sideways.)
     let mut claimed: Vec<bool> = (0..g.z.len())
-        .map(|i| on_support[i] || (off[i] && flat_near_support(&g, &planes, i, cfg)))
+        .map(|i| p.on_support[i] || (p.off[i] && flat_near_support(&g, &p.planes, i, cfg)))
         .collect();
     let cands = boxes::fill(&g, chosen, &mut claimed, cfg);
     let step = g.step;
