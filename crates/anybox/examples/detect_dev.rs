@@ -98,19 +98,9 @@ impl Tally {
 
 /// The detection whose mask overlaps `gt` best: (index, mask IoU).
 fn best_mask_iou(dets: &[Detection], gt: &Mask) -> Option<(usize, f64)> {
-    let n_gt = gt.count();
     dets.iter()
         .enumerate()
-        .map(|(j, d)| {
-            let i = d
-                .mask
-                .data
-                .iter()
-                .zip(&gt.data)
-                .filter(|(a, b)| **a && **b)
-                .count();
-            (j, i as f64 / (d.mask.count() + n_gt - i).max(1) as f64)
-        })
+        .map(|(j, d)| (j, mask_iou(&d.mask, gt)))
         .max_by(|a, b| a.1.total_cmp(&b.1))
 }
 
@@ -511,6 +501,9 @@ fn main() {
                 let pool =
                     anybox::detect::candidate_pool(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg)
                         .expect("pool");
+                let labs =
+                    anybox::detect::segment_labels(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg)
+                        .expect("labels");
                 for (k, b) in v.boxes.iter().enumerate() {
                     if b.visib_fract < 0.5 {
                         continue;
@@ -550,9 +543,6 @@ fn main() {
                             .sum();
                         n as f64 / b.mask_visib.count().max(1) as f64
                     };
-                    let labs =
-                        anybox::detect::segment_labels(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg)
-                            .expect("labels");
                     println!(
                         "  pure {name} s{s} gt {k} final {fin:.2} geo {:.2} col {:.2}",
                         pure(&labs[0]),

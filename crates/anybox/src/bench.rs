@@ -477,12 +477,12 @@ pub fn run_detection(set: &BenchSet, config: &Config, min_visib: f64) -> Detecti
     let (mut n_det, mut n_fp, mut errors) = (0, 0, 0);
     for f in &set.frames {
         gts.extend(f.gt_entries());
-        let counted: Vec<&BenchInstance> = f
+        let gt_masks: Vec<Mask> = f
             .instances
             .iter()
             .filter(|i| i.visib_fract >= min_visib)
+            .map(|i| i.mask.clone())
             .collect();
-        let gt_masks: Vec<Mask> = counted.iter().map(|i| i.mask.clone()).collect();
         let from_gt = estimate_frame(&f.depth, &f.intrinsics, &gt_masks, config);
         for r in from_gt.into_iter().flatten() {
             gt_mask_ests.push(EstEntry {
