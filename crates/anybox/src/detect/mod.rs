@@ -380,28 +380,12 @@ pub fn detect_boxes(
         .map(|i| p.on_support[i] || (p.off[i] && flat_near_support(&g, &p.planes, i, cfg)))
         .collect();
     let cands = boxes::fill(&g, chosen, &mut claimed, cfg);
-    let step = g.step;
     let (fw, fh) = (w as usize, h as usize);
     let one_face_min = cfg.one_face_min_pixels as f64 * (fw * fh) as f64 / (640.0 * 480.0);
     let out = cands
         .into_iter()
         .filter_map(|c| {
-            let mut mask = Mask::empty(w, h);
-            for &cell in &c.cells {
-                let (gu, gv) = (cell as usize % g.w, cell as usize / g.w);
-                // A cell keeps its front surface; pixels of the cell well behind it are the
-                // background seen past the box's rim, which the estimator would take for box.
-                let z_cell = g.z[cell as usize];
-                let far = z_cell + grid::jump_tol(cfg, z_cell);
-                for v in gv * step..((gv + 1) * step).min(fh) {
-                    for u in gu * step..((gu + 1) * step).min(fw) {
-                        let z = depth.depth_mm[v * fw + u];
-                        if z_cell <= 0.0 || !(z > 0.0 && z > far) {
-                            mask.data[v * fw + u] = true;
-                        }
-                    }
-                }
-            }
+            let mask = cells_to_mask(&g, depth, &c.cells, Some(cfg));
             if c.n_faces == 1 && (mask.count() as f64) < one_face_min {
                 return None;
             }
@@ -481,6 +465,35 @@ fn pool(g: &grid::Grid, has_rgb: bool, cfg: &DetectConfig) -> Pool {
     }
 }
 
+/// The frame-size mask of grid `cells`. With `drop_behind`, a cell keeps its front surface:
+/// pixels well behind the cell's depth (by the jump tolerance) are the background seen past a
+/// box's rim, which the estimator would take for box.
+fn cells_to_mask(
+    g: &grid::Grid,
+    depth: &DepthMap,
+    cells: &[u32],
+    drop_behind: Option<&DetectConfig>,
+) -> Mask {
+    let (fw, fh) = (depth.width as usize, depth.height as usize);
+    let mut mask = Mask::empty(depth.width, depth.height);
+    for &cell in cells {
+        let (gu, gv) = (cell as usize % g.w, cell as usize / g.w);
+        let z_cell = g.z[cell as usize];
+        let far = drop_behind
+            .filter(|_| z_cell > 0.0)
+            .map(|cfg| z_cell + grid::jump_tol(cfg, z_cell));
+        for v in gv * g.step..((gv + 1) * g.step).min(fh) {
+            for u in gu * g.step..((gu + 1) * g.step).min(fw) {
+                let z = depth.depth_mm[v * fw + u];
+                if far.is_none_or(|far| !(z > 0.0 && z > far)) {
+                    mask.data[v * fw + u] = true;
+                }
+            }
+        }
+    }
+    mask
+}
+
 /// Diagnostic view of the candidate pool: every object-level (`'o'`), surface-level (`'s'`)
 /// and colour-level (`'p'`) candidate before selection, as a mask of its own cells (no fill),
 /// with its score and face count. For tuning the selection; [`detect_boxes`] validates the
@@ -494,22 +507,10 @@ pub fn candidate_pool(
     validate(rgb, depth, intrinsics)?;
     let g = grid::Grid::build(rgb, depth, intrinsics, cfg);
     let p = pool(&g, rgb.is_some(), cfg);
-    let (fw, fh) = (depth.width as usize, depth.height as usize);
-    let to_mask = |c: &boxes::Raw| {
-        let mut mask = Mask::empty(depth.width, depth.height);
-        for &cell in &c.cells {
-            let (gu, gv) = (cell as usize % g.w, cell as usize / g.w);
-            for v in gv * g.step..((gv + 1) * g.step).min(fh) {
-                for u in gu * g.step..((gu + 1) * g.step).min(fw) {
-                    mask.data[v * fw + u] = true;
-                }
-            }
-        }
-        Detection {
-            mask,
-            score: c.score,
-            n_faces: c.n_faces,
-        }
+    let to_mask = |c: &boxes::Raw| Detection {
+        mask: cells_to_mask(&g, depth, &c.cells, None),
+        score: c.score,
+        n_faces: c.n_faces,
     };
     let mut out = Vec::new();
     for (src, list) in [('o', &p.objects), ('s', &p.geo), ('p', &p.col)] {
