@@ -28,7 +28,7 @@ pub(crate) struct Grid {
     pub n: Vec<[f32; 3]>,
     /// Colour of the cell smoothed over 3×3 cells (0..255 per channel); grey when no RGB.
     pub c: Vec<[f32; 3]>,
-    /// The cell holds a thin dark line of the full-resolution image (a seam between flush
+    /// The cell holds a thin dark (or bright) line of the full-resolution image (a seam between flush
     /// cartons, a printed edge); such cells join nothing in the colour-aware segmentation.
     pub seam: Vec<bool>,
 }
@@ -160,11 +160,11 @@ fn cells(
     (z, c)
 }
 
-/// Thin dark lines: a pixel darker than both pixels two to either side (along a row or a
-/// column) by more than `seam_valley_levels` and by more than `seam_valley_rel` of their
-/// brightness, on luminance averaged over 3 px along the line
-/// (sensor noise drops, the line does not); a cell is a seam cell when it holds at least
-/// `seam_min_pixels` such pixels.
+/// Thin lines: a pixel darker than both pixels two to either side (along a row or a column)
+/// by more than `seam_valley_levels` and by more than `seam_valley_rel` of their brightness,
+/// on luminance averaged over 3 px along the line (sensor noise drops, the line does not);
+/// with `seam_ridges`, also a pixel brighter than both by as much. A cell is a seam cell when
+/// it holds at least `seam_min_pixels` such pixels.
 fn seams(img: &RgbImage, w: usize, h: usize, step: usize, cfg: &DetectConfig) -> Vec<bool> {
     let (fw, fh) = (img.width() as usize, img.height() as usize);
     let raw = img.as_raw();
@@ -185,6 +185,7 @@ fn seams(img: &RgbImage, w: usize, h: usize, step: usize, cfg: &DetectConfig) ->
     // Both sums cover 9 channel values: levels × 9.
     let t = (cfg.seam_valley_levels * 9.0) as i32;
     let rel = cfg.seam_valley_rel;
+    let ridges = cfg.seam_ridges;
     let mut count = vec![0u16; w * h];
     for v in 3..fh.saturating_sub(3) {
         for u in 3..fw.saturating_sub(3) {
@@ -195,7 +196,15 @@ fn seams(img: &RgbImage, w: usize, h: usize, step: usize, cfg: &DetectConfig) ->
             // cent of the brightness) are not seams.
             let hx = bx - col3[i] > t && (bx - col3[i]) as f64 > rel * bx as f64;
             let vy = by - row3[i] > t && (by - row3[i]) as f64 > rel * by as f64;
-            if hx || vy {
+            // A bright ridge: the lit sliver of a lower carton's top where a stacked layer is
+            // set back by a few millimetres.
+            let ridge = ridges && {
+                let tx = col3[i - 2].max(col3[i + 2]);
+                let ty = row3[i - 2 * fw].max(row3[i + 2 * fw]);
+                (col3[i] - tx > t && (col3[i] - tx) as f64 > rel * tx as f64)
+                    || (row3[i] - ty > t && (row3[i] - ty) as f64 > rel * ty as f64)
+            };
+            if hx || vy || ridge {
                 count[(v / step) * w + u / step] += 1;
             }
         }
