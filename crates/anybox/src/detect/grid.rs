@@ -338,3 +338,71 @@ fn box3(c: &[[f32; 3]], w: usize, h: usize) -> Vec<[f32; 3]> {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A dark carton face (32 grey levels, sensor noise of σ ≈ 2 levels) with a crease 2 px
+    /// wide at 72 % brightness along row 20 and a lit sliver 2 px wide at 160 % along row 40.
+    fn dark_face() -> RgbImage {
+        let (w, h) = (64u32, 64u32);
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut noise = move || {
+            // Sum of four uniforms on [-1.7, 1.7]: σ ≈ 2 levels.
+            (0..4)
+                .map(|_| {
+                    state ^= state << 13;
+                    state ^= state >> 7;
+                    state ^= state << 17;
+                    (state >> 11) as f64 / (1u64 << 53) as f64 * 3.4 - 1.7
+                })
+                .sum::<f64>()
+        };
+        RgbImage::from_fn(w, h, |_, v| {
+            let base = match v {
+                20 | 21 => 32.0 * 0.72,
+                40 | 41 => 32.0 * 1.6,
+                _ => 32.0,
+            };
+            let c = (base + noise()).round().clamp(0.0, 255.0) as u8;
+            image::Rgb([c, c, c])
+        })
+    }
+
+    /// Fraction of the cells of grid row `gv` (columns 4..28, away from the border) that are
+    /// seam cells.
+    fn row_share(seam: &[bool], w: usize, gv: usize) -> f64 {
+        (4..28).filter(|&u| seam[gv * w + u]).count() as f64 / 24.0
+    }
+
+    #[test]
+    fn seams_find_a_dark_crease_and_a_bright_sliver_but_not_noise() {
+        let img = dark_face();
+        let cfg = DetectConfig::default();
+        let (w, h) = (32, 32);
+        let seam = seams(&img, w, h, 2, &cfg);
+        assert!(row_share(&seam, w, 10) >= 0.9, "crease");
+        assert!(row_share(&seam, w, 20) >= 0.9, "sliver");
+        // Rows more than two cells from both lines see noise alone: scattered seam cells
+        // (about 5 % here; each leaves a hole in a region) but no line.
+        let quiet: Vec<f64> = (2..30)
+            .filter(|&v: &usize| v.abs_diff(10) > 2 && v.abs_diff(20) > 2)
+            .map(|v| row_share(&seam, w, v))
+            .collect();
+        let stray = quiet.iter().sum::<f64>() / quiet.len() as f64;
+        assert!(stray < 0.1, "stray seam cells {stray}");
+        assert!(quiet.iter().all(|&s| s < 0.3), "a noise line: {quiet:?}");
+        // The old thresholds missed the crease of a dark carton; without ridges the sliver
+        // is no seam.
+        let old = DetectConfig {
+            seam_valley_levels: 12.0,
+            seam_valley_rel: 0.12,
+            seam_ridges: false,
+            ..DetectConfig::default()
+        };
+        let seam = seams(&img, w, h, 2, &old);
+        assert!(row_share(&seam, w, 10) < 0.2, "old crease");
+        assert!(row_share(&seam, w, 20) < 0.2, "old sliver");
+    }
+}
