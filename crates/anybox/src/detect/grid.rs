@@ -28,8 +28,8 @@ pub(crate) struct Grid {
     pub n: Vec<[f32; 3]>,
     /// Colour of the cell smoothed over 3×3 cells (0..255 per channel); grey when no RGB.
     pub c: Vec<[f32; 3]>,
-    /// The cell holds a thin dark (or bright) line of the full-resolution image (a seam between flush
-    /// cartons, a printed edge); such cells join nothing in the colour-aware segmentation.
+    /// The cell holds a thin dark (or bright) line of the full-resolution image (a seam between
+    /// flush cartons, a printed edge); such cells join nothing in the colour-aware segmentation.
     pub seam: Vec<bool>,
 }
 
@@ -192,8 +192,8 @@ fn seams(img: &RgbImage, w: usize, h: usize, step: usize, cfg: &DetectConfig) ->
             let i = v * fw + u;
             let bx = col3[i - 2].min(col3[i + 2]);
             let by = row3[i - 2 * fw].min(row3[i + 2 * fw]);
-            // Absolute and relative depth of the valley: printed grain and fibre (a few per
-            // cent of the brightness) are not seams.
+            // Absolute and relative depth of the valley: most sensor noise and printed grain
+            // (a few per cent of the brightness) are not seams.
             let hx = bx - col3[i] > t && (bx - col3[i]) as f64 > rel * bx as f64;
             let vy = by - row3[i] > t && (by - row3[i]) as f64 > rel * by as f64;
             // A bright ridge: the lit sliver of a lower carton's top where a stacked layer is
