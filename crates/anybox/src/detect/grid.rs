@@ -186,6 +186,8 @@ fn seams(img: &RgbImage, w: usize, h: usize, step: usize, cfg: &DetectConfig) ->
     let t = (cfg.seam_valley_levels * 9.0) as i32;
     let rel = cfg.seam_valley_rel;
     let ridges = cfg.seam_ridges;
+    // A line `d` deeper (or higher) than the side it is compared with, `side`.
+    let deep = |d: i32, side: i32| d > t && d as f64 > rel * side as f64;
     let mut count = vec![0u16; w * h];
     for v in 3..fh.saturating_sub(3) {
         for u in 3..fw.saturating_sub(3) {
@@ -194,15 +196,14 @@ fn seams(img: &RgbImage, w: usize, h: usize, step: usize, cfg: &DetectConfig) ->
             let by = row3[i - 2 * fw].min(row3[i + 2 * fw]);
             // Absolute and relative depth of the valley: most sensor noise and printed grain
             // (a few per cent of the brightness) are not seams.
-            let hx = bx - col3[i] > t && (bx - col3[i]) as f64 > rel * bx as f64;
-            let vy = by - row3[i] > t && (by - row3[i]) as f64 > rel * by as f64;
+            let hx = deep(bx - col3[i], bx);
+            let vy = deep(by - row3[i], by);
             // A bright ridge: the lit sliver of a lower carton's top where a stacked layer is
             // set back by a few millimetres.
             let ridge = ridges && {
                 let tx = col3[i - 2].max(col3[i + 2]);
                 let ty = row3[i - 2 * fw].max(row3[i + 2 * fw]);
-                (col3[i] - tx > t && (col3[i] - tx) as f64 > rel * tx as f64)
-                    || (row3[i] - ty > t && (row3[i] - ty) as f64 > rel * ty as f64)
+                deep(col3[i] - tx, tx) || deep(row3[i] - ty, ty)
             };
             if hx || vy || ridge {
                 count[(v / step) * w + u / step] += 1;
