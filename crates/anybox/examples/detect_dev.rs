@@ -3,7 +3,9 @@
 //!
 //! `cargo run --release -p anybox --example detect_dev -- [views-per-config] [dump-dir]`
 //! Env: `SEED=<u64>` (default 7), `ONLY=<layout>`, `NOISE=none`, `DETECT_CFG=<json>`, `LABELS=1`,
-//! `EST=1`, `VERBOSE=1`, `VIEW=<index>` (one view only).
+//! `EST=1`, `VERBOSE=1`, `VIEW=<index>` (one view only), `KIND=1` (per detection: exact, part
+//! of one box, bleeding into others, mixed or junk, by precision and recall against the GT
+//! mask it overlaps most).
 //! A GT box counts when its visible fraction is ≥ 0.5; a detection is a true positive when its
 //! mask IoU with an unmatched such GT is > 0.5 (greedy in score order); detections matching a
 //! GT with lower visibility are ignored (neither TP nor FP).
@@ -148,6 +150,26 @@ fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], objs: Option<&[u32]>, ta
                     }
                 }
             }
+        }
+        if std::env::var("KIND").is_ok() {
+            let (k, i) = inter
+                .iter()
+                .enumerate()
+                .max_by_key(|x| *x.1)
+                .unwrap_or((0, &0));
+            let prec = *i as f64 / area.max(1) as f64;
+            let rec = *i as f64 / gt_area.get(k).copied().unwrap_or(1).max(1) as f64;
+            let kind = match (prec > 0.85, rec > 0.85) {
+                (true, true) => "exact",
+                (true, false) => "part",
+                (false, true) => "bleed",
+                _ if prec < 0.3 => "junk",
+                _ => "mixed",
+            };
+            println!(
+                "KIND {kind} prec {prec:.2} rec {rec:.2} score {:.3} faces {}",
+                d.score, d.n_faces
+            );
         }
         let mut best: Option<(usize, f64)> = None;
         for k in 0..n {

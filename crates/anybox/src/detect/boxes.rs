@@ -386,7 +386,7 @@ fn inside_convex(poly: &[Point2<f64>], p: &Point2<f64>) -> bool {
 }
 
 /// Whether a region can be a box face: big enough, planar, not curved.
-fn is_face(r: &Region, cfg: &DetectConfig) -> bool {
+pub(crate) fn is_face(r: &Region, cfg: &DetectConfig) -> bool {
     r.n >= cfg.min_face_cells as usize
         && r.inlier_frac >= cfg.min_plane_inlier_frac
         && r.normal_spread_deg <= cfg.max_normal_spread_deg

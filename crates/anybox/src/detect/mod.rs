@@ -10,6 +10,8 @@
 //! 2. [`regions`]: union-find over 4-neighbours, cut at depth jumps, normal changes and colour
 //!    changes — flush faces of touching cartons are separated by their printed edges, tape,
 //!    shadowed gaps and colour differences, which depth alone cannot see; a plane per region;
+//!    tops cut in two by tape or by their own flap seam are rejoined ([`halves`] pairs flap-seam
+//!    halves off from a carton's edge);
 //! 3. [`boxes`]: support planes (floor, table, shelf boards, walls) removed; up to three mutually
 //!    perpendicular faces sharing a convex edge grouped into one box; curved (sphere, cylinder),
 //!    irregular, too small and too large segments rejected; a cuboid fitted per group and scored
@@ -28,6 +30,7 @@
 mod blobs;
 mod boxes;
 mod grid;
+mod halves;
 mod regions;
 
 use anybox_geom::Intrinsics;
@@ -192,6 +195,21 @@ pub struct DetectConfig {
     /// A seam that stops at the candidate's perpendicular side face (seen there, not
     /// continuing down it) is the carton's own flap seam and does not split it. Default true.
     pub split_flap_check: bool,
+    /// Flap-seam halves (see `halves`): a single-face candidate at least this many times as
+    /// long as wide may be half a carton top; chains of such halves pair off from a carton's
+    /// edge into whole tops. 0 disables. Default 1.6 (a half of an L × W top with L ≥ W is
+    /// L × W/2, aspect ≥ 2).
+    pub halves_min_aspect: f64,
+    /// Two halves agree in length, width and position along their shared side within this
+    /// ratio (shorter / longer). Default 0.8.
+    pub halves_min_ratio: f64,
+    /// Two halves touch: the gap between them is within this (plus the ratio's slack), mm;
+    /// also how far beyond a chain's end patch the surface must have ended. Default 15.
+    pub halves_gap_mm: f64,
+    /// Two patches are not halves when the line between them is seen to run on down an end
+    /// face of theirs (the joint of two cartons; a flap seam stops at the top's edge).
+    /// Default true.
+    pub halves_joint_check: bool,
     /// "Next to" for `split_min_seam_cells`: within this many cells. Default 3.
     pub split_seam_reach_cells: u32,
     /// Colour-level candidates count for a split when they hold at least this fraction of the
@@ -290,6 +308,10 @@ impl Default for DetectConfig {
             min_score: 0.3,
             split_min_seam_cells: 6,
             split_flap_check: true,
+            halves_min_aspect: 1.6,
+            halves_min_ratio: 0.8,
+            halves_gap_mm: 15.0,
+            halves_joint_check: true,
             split_seam_reach_cells: 3,
             split_min_fraction: 0.03,
             max_overlap: 0.3,
@@ -443,8 +465,15 @@ fn pool(g: &grid::Grid, has_rgb: bool, cfg: &DetectConfig) -> Pool {
                 || {
                     let (mut labels, patches) =
                         regions::segment(g, &joins, Cues::All, Some(&on_support), cfg);
-                    let n_patches = regions::bridge_tape(g, &mut labels, &patches, cfg);
+                    let mut strip = vec![false; g.z.len()];
+                    let n_patches = regions::bridge_tape(g, &mut labels, &patches, &mut strip, cfg);
                     let patches = regions::fit_regions(g, &labels, n_patches, cfg);
+                    let n_joined = halves::pair_halves(g, &mut labels, &patches, &strip, cfg);
+                    let patches = if n_joined == n_patches {
+                        patches
+                    } else {
+                        regions::fit_regions(g, &labels, n_joined, cfg)
+                    };
                     let c = boxes::group_candidates(g, &labels, &patches, &on_support, cfg);
                     boxes::drop_support_fragments(g, c, &planes, cfg)
                 },

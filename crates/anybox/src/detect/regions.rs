@@ -454,11 +454,13 @@ pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig
 /// colour on opposite sides of it whose extents along the strip overlap (same carton) become one
 /// region, together with the strip cells between them. Neighbouring cartons do not overlap along
 /// the strip, and a seam separates them anyway. Returns the new number of regions (labels are
-/// compacted and the regions refitted by the caller).
+/// compacted and the regions refitted by the caller). `strip` marks the strip cells that joined
+/// a bridged pair (a top with tape along its flap seam).
 pub(crate) fn bridge_tape(
     g: &Grid,
     labels: &mut [u32],
     regions: &[Region],
+    strip: &mut [bool],
     cfg: &DetectConfig,
 ) -> usize {
     let n = regions.len();
@@ -598,6 +600,7 @@ pub(crate) fn bridge_tape(
             let x = (pt(i) - c0).dot(&axis);
             if x >= x0 && x <= x1 {
                 labels[i] = a as u32;
+                strip[i] = true;
             }
         }
     }

@@ -1,0 +1,346 @@
+//! Rejoining the two halves of a carton top that its flap seam cuts in two.
+//!
+//! In: the colour-level regions (labels per cell and their plane fits), the cells that
+//! `regions::bridge_tape` moved into a region. Out: the labels with each pair of halves made
+//! one region.
+//!
+//! A carton's flaps meet along the middle of its top, along the long side, and the thin line
+//! they leave looks just like the joint between two flush cartons. Locally the two cannot be
+//! told apart: on a layer of identical cartons the lines are evenly spaced and alternate, flap
+//! seam, joint, flap seam. But a layer ends at a carton's edge. So the halves are found as
+//! *chains*: planar patches side by side across their long sides, coplanar, of about the same
+//! colour, length, width and position along the line, each at least `halves_min_aspect` times
+//! as long as wide (a half of an L × W top with L ≥ W is L × W/2). A chain whose end patch has
+//! no coplanar surface beyond its outer side starts at a carton's edge, and its patches pair
+//! off from there. Left alone: chains holding a top whose tape was bridged (that carton shows
+//! no flap seam, and on a layer of one product neither do the others), chains with no clean
+//! end, and chains of odd length with two clean ends.
+//!
+//! Two plain boxes (no flap seam) side by side look the same from above. Where an end face
+//! shows, the joint between them runs on down it and a flap seam does not, so two patches
+//! whose line is seen on an end face are not linked (`halves_joint_check`). Where no end face
+//! shows, such a pair is taken for one carton: the image holds nothing that tells them apart.
+
+use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+
+use super::boxes::{is_face, robust_range, v3};
+use super::grid::Grid;
+use super::regions::{plane_tol, Region, NONE};
+use super::DetectConfig;
+
+/// What pairing needs of one planar region.
+struct Half {
+    /// Region label.
+    label: usize,
+    /// Centre of its rectangle, camera frame, mm.
+    centre: Vector3<f64>,
+    normal: Vector3<f64>,
+    /// Unit long in-plane axis.
+    long: Vector3<f64>,
+    /// Unit in-plane axis across it (`normal × long`).
+    across: Vector3<f64>,
+    len_mm: f64,
+    width_mm: f64,
+    colour: Vector3<f64>,
+}
+
+/// Joins chained halves (see the module doc) into one region each, relabelling `labels`
+/// compactly. `strip`: cells that `bridge_tape` moved into a region. Returns the new number of
+/// regions (`regions.len()` when nothing was joined; the caller refits otherwise).
+pub(crate) fn pair_halves(
+    g: &Grid,
+    labels: &mut [u32],
+    regions: &[Region],
+    strip: &[bool],
+    cfg: &DetectConfig,
+) -> usize {
+    let n = regions.len();
+    if cfg.halves_min_aspect <= 0.0 || n < 2 {
+        return n;
+    }
+    let mut cells: Vec<Vec<usize>> = vec![Vec::new(); n];
+    let mut taped = vec![false; n];
+    for (i, &l) in labels.iter().enumerate() {
+        if l != NONE {
+            cells[l as usize].push(i);
+            taped[l as usize] |= strip[i];
+        }
+    }
+    let halves: Vec<Half> = (0..n)
+        .filter(|&l| !taped[l] && is_face(&regions[l], cfg))
+        .filter_map(|l| half_of(g, l, &regions[l], &cells[l], cfg))
+        .collect();
+    if halves.len() < 2 {
+        return n;
+    }
+    // Best neighbour on either side of each half: (index into `halves`, gap error).
+    let mut side: Vec<[Option<(usize, f64)>; 2]> = vec![[None, None]; halves.len()];
+    for (a, ha) in halves.iter().enumerate() {
+        for (b, hb) in halves.iter().enumerate() {
+            if a == b {
+                continue;
+            }
+            if let Some((s, err)) = neighbour(ha, hb, cfg) {
+                if side[a][s].is_none_or(|(_, e)| err < e) {
+                    side[a][s] = Some((b, err));
+                }
+            }
+        }
+    }
+    // A side whose line is seen running down an end face is a carton's edge: no link there,
+    // and a chain ending there ends cleanly.
+    let mut joint = vec![[false; 2]; halves.len()];
+    if cfg.halves_joint_check {
+        for a in 0..halves.len() {
+            for s in 0..2 {
+                if let Some((b, _)) = side[a][s] {
+                    if joint_seen(g, &halves[a], &halves[b]) {
+                        joint[a][s] = true;
+                        side[a][s] = None;
+                    }
+                }
+            }
+        }
+    }
+    // Mutual links only: b is a's best on one side and a is b's best on one side.
+    let nbrs: Vec<Vec<usize>> = (0..halves.len())
+        .map(|a| {
+            side[a]
+                .iter()
+                .flatten()
+                .map(|&(b, _)| b)
+                .filter(|&b| side[b].iter().flatten().any(|&(x, _)| x == a))
+                .collect()
+        })
+        .collect();
+    let mut seen = vec![false; halves.len()];
+    let mut parent: Vec<usize> = (0..n).collect();
+    let mut joined = false;
+    for start in 0..halves.len() {
+        if seen[start] || nbrs[start].len() != 1 {
+            continue;
+        }
+        // Walk the chain from this end.
+        let mut chain = vec![start];
+        seen[start] = true;
+        let (mut prev, mut cur) = (start, nbrs[start][0]);
+        while !seen[cur] {
+            seen[cur] = true;
+            chain.push(cur);
+            let Some(&next) = nbrs[cur].iter().find(|&&x| x != prev) else {
+                break;
+            };
+            (prev, cur) = (cur, next);
+        }
+        let k = chain.len();
+        let end_clean = |e: usize, inner: usize| {
+            let (he, hi) = (&halves[e], &halves[inner]);
+            let inward = (hi.centre - he.centre).dot(&he.across);
+            // `neighbour`'s side index: 1 = along +across.
+            joint[e][usize::from(inward <= 0.0)]
+                || clean_end(g, he, &(-inward.signum() * he.across), cfg)
+        };
+        let first = end_clean(chain[0], chain[1]);
+        let last = end_clean(chain[k - 1], chain[k - 2]);
+        if std::env::var("DETECT_DEBUG").is_ok() {
+            let desc: Vec<String> = chain
+                .iter()
+                .map(|&c| {
+                    let h = &halves[c];
+                    let u = (g.k.fx * h.centre.x / h.centre.z + g.k.cx) * g.step as f64;
+                    let v = (g.k.fy * h.centre.y / h.centre.z + g.k.cy) * g.step as f64;
+                    format!("({u:.0},{v:.0} {:.0}x{:.0})", h.len_mm, h.width_mm)
+                })
+                .collect();
+            eprintln!("halves chain {k} clean {first} {last}: {}", desc.join(" "));
+        }
+        // Pair off from a clean end (for an even count both ends give the same pairs).
+        let order: Vec<usize> = match (k % 2 == 0, first, last) {
+            (true, true, _) | (true, false, true) | (false, true, false) => chain,
+            (false, false, true) => chain.into_iter().rev().collect(),
+            _ => continue,
+        };
+        for p in order.chunks_exact(2) {
+            let (a, b) = (halves[p[0]].label, halves[p[1]].label);
+            parent[b] = a;
+            joined = true;
+        }
+    }
+    if !joined {
+        return n;
+    }
+    // Pairs are disjoint, so every label's root is its parent; renumber roots in order.
+    let mut new_id = vec![NONE; n];
+    let mut next = 0u32;
+    for l in labels.iter_mut() {
+        if *l == NONE {
+            continue;
+        }
+        let r = parent[*l as usize];
+        if new_id[r] == NONE {
+            new_id[r] = next;
+            next += 1;
+        }
+        *l = new_id[r];
+    }
+    next as usize
+}
+
+/// A planar region as a possible half; `None` when it is not elongated enough.
+fn half_of(
+    g: &Grid,
+    label: usize,
+    r: &Region,
+    cells: &[usize],
+    cfg: &DetectConfig,
+) -> Option<Half> {
+    // An even stride of at most 512 points: the quantiles barely move.
+    let stride = cells.len().div_ceil(512).max(1);
+    let pts: Vec<Vector3<f64>> = cells.iter().step_by(stride).map(|&i| v3(&g.p[i])).collect();
+    // In-plane principal axes: along the sides of an elongated rectangle.
+    let normal = r.normal;
+    let mut cov = Matrix3::zeros();
+    for p in &pts {
+        let d = p - r.centroid;
+        let d = d - normal * d.dot(&normal);
+        cov += d * d.transpose();
+    }
+    let eig = SymmetricEigen::new(cov);
+    let b: Vector3<f64> = eig.eigenvectors.column(eig.eigenvalues.imax()).into_owned();
+    let c = normal.cross(&b).try_normalize(1e-9)?;
+    let b = c.cross(&normal);
+    let range = |ax: &Vector3<f64>| {
+        let mut vals: Vec<f64> = pts.iter().map(|p| p.dot(ax)).collect();
+        robust_range(&mut vals, cfg.extent_quantile)
+    };
+    let ((b0, b1), (c0, c1)) = (range(&b), range(&c));
+    let (sb, sc) = (b1 - b0, c1 - c0);
+    let (long, len_mm, width_mm) = if sb >= sc { (b, sb, sc) } else { (c, sc, sb) };
+    if width_mm <= 0.0 || len_mm < cfg.halves_min_aspect * width_mm {
+        return None;
+    }
+    let centre = normal * normal.dot(&r.centroid) + b * (b0 + b1) / 2.0 + c * (c0 + c1) / 2.0;
+    Some(Half {
+        label,
+        centre,
+        normal,
+        long,
+        across: normal.cross(&long),
+        len_mm,
+        width_mm,
+        colour: Vector3::from(r.colour),
+    })
+}
+
+/// Whether `b` lies beside `a` across one of `a`'s long sides as its possible other half:
+/// the side (0 or 1) and how far the gap between them is from a touching pair, mm.
+fn neighbour(a: &Half, b: &Half, cfg: &DetectConfig) -> Option<(usize, f64)> {
+    let cos_par = cfg.perpendicular_tol_deg.to_radians().cos();
+    let d = b.centre - a.centre;
+    let tol = plane_tol(cfg, a.centre.z.max(1.0));
+    let coplanar = a.normal.dot(&b.normal) >= cos_par && d.dot(&a.normal).abs() <= 3.0 * tol;
+    if !coplanar || a.long.dot(&b.long).abs() < cos_par {
+        return None;
+    }
+    let ratio = |x: f64, y: f64| x.min(y) / x.max(y);
+    let slack = 1.0 - cfg.halves_min_ratio;
+    if ratio(a.len_mm, b.len_mm) < cfg.halves_min_ratio
+        || ratio(a.width_mm, b.width_mm) < cfg.halves_min_ratio
+        || (a.colour - b.colour).norm() > cfg.tape_colour_delta
+        || d.dot(&a.long).abs() > slack * a.len_mm.max(b.len_mm)
+    {
+        return None;
+    }
+    let across = d.dot(&a.across);
+    let err = (across.abs() - (a.width_mm + b.width_mm) / 2.0).abs();
+    if err > cfg.halves_gap_mm + slack * (a.width_mm + b.width_mm) / 2.0 {
+        return None;
+    }
+    Some((usize::from(across > 0.0), err))
+}
+
+/// Whether the line between halves `a` and `b` is seen to be the joint of two cartons: where
+/// it meets an end face (perpendicular to the long axis, below the top), a seam runs on down
+/// that face along the line: at least 4 cells of the face within 10 mm of the line, at least
+/// 30 % of them seam cells, and twice the seam fraction of the face 10–25 mm to either side
+/// (print and labels darken both alike). A flap seam stops at the top's edge.
+fn joint_seen(g: &Grid, a: &Half, b: &Half) -> bool {
+    let m = (a.centre + b.centre) / 2.0;
+    let (across, long, up) = (a.across, a.long, a.normal);
+    let half_len = a.len_mm.max(b.len_mm) / 2.0;
+    // Image bounds of the slab around the line: 25 mm either side, the top's length plus
+    // 30 mm, down to 150 mm below the top.
+    let (mut u0, mut v0, mut u1, mut v1) = (f64::INFINITY, f64::INFINITY, 0f64, 0f64);
+    for sx in [-1.0, 1.0] {
+        for sy in [-1.0, 1.0] {
+            for dz in [0.0, -150.0] {
+                let p = m + across * (25.0 * sx) + long * ((half_len + 30.0) * sy) + up * dz;
+                if p.z <= 1.0 {
+                    return false;
+                }
+                let (u, v) = (g.k.fx * p.x / p.z + g.k.cx, g.k.fy * p.y / p.z + g.k.cy);
+                (u0, v0, u1, v1) = (u0.min(u), v0.min(v), u1.max(u), v1.max(v));
+            }
+        }
+    }
+    let clamp = |x: f64, n: usize| x.clamp(0.0, n as f64 - 1.0) as usize;
+    let (u0, u1, v0, v1) = (
+        clamp(u0, g.w),
+        clamp(u1, g.w),
+        clamp(v0, g.h),
+        clamp(v1, g.h),
+    );
+    // Cells and seam cells on the line (0) and beside it (1).
+    let mut count = [[0usize; 2]; 2];
+    for v in v0..=v1 {
+        for u in u0..=u1 {
+            let i = v * g.w + u;
+            if g.z[i] <= 0.0 {
+                continue;
+            }
+            let n = v3(&g.n[i]);
+            let d = v3(&g.p[i]) - m;
+            let below = -d.dot(&up);
+            let off = d.dot(&across).abs();
+            if n.dot(&long).abs() < 0.7
+                || off > 25.0
+                || !(5.0..=150.0).contains(&below)
+                || (d.dot(&long).abs() - half_len).abs() > 30.0
+            {
+                continue;
+            }
+            let k = usize::from(off > 10.0);
+            count[k][0] += 1;
+            count[k][1] += g.seam[i] as usize;
+        }
+    }
+    let frac = |[n, s]: [usize; 2]| s as f64 / n.max(1) as f64;
+    count[0][0] >= 4 && frac(count[0]) >= 0.3 && frac(count[0]) >= 2.0 * frac(count[1])
+}
+
+/// Whether the surface beyond half `h`, in direction `out` (in its plane), ends: fewer than a
+/// third of nine points along its outer side, just beyond it, lie on `h`'s plane. Points
+/// outside the frame count for neither; with fewer than five inside, the end is not clean.
+fn clean_end(g: &Grid, h: &Half, out: &Vector3<f64>, cfg: &DetectConfig) -> bool {
+    let tol = plane_tol(cfg, h.centre.z.max(1.0));
+    let reach = h.width_mm / 2.0 + cfg.halves_gap_mm.max(0.25 * h.width_mm);
+    let (mut n, mut on_plane) = (0usize, 0usize);
+    for k in 0..9 {
+        let t = (k as f64 / 8.0 - 0.5) * 0.7 * h.len_mm;
+        let p = h.centre + out * reach + h.long * t;
+        if p.z <= 0.0 {
+            continue;
+        }
+        let u = (g.k.fx * p.x / p.z + g.k.cx).round();
+        let v = (g.k.fy * p.y / p.z + g.k.cy).round();
+        if u < 0.0 || v < 0.0 || u >= g.w as f64 || v >= g.h as f64 {
+            continue;
+        }
+        let i = v as usize * g.w + u as usize;
+        n += 1;
+        if g.z[i] > 0.0 && (v3(&g.p[i]) - h.centre).dot(&h.normal).abs() <= 3.0 * tol {
+            on_plane += 1;
+        }
+    }
+    n >= 5 && on_plane * 3 < n
+}
