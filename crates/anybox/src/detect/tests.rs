@@ -172,6 +172,16 @@ impl Scene {
     }
 }
 
+/// The camera-frame point seen at pixel (u, v) at depth `z_mm`, mm.
+fn back_project(u: u32, v: u32, z_mm: f64) -> Vector3<f64> {
+    let kk = k();
+    Vector3::new(
+        (u as f64 - kk.cx) / kk.fx * z_mm,
+        (v as f64 - kk.cy) / kk.fy * z_mm,
+        z_mm,
+    )
+}
+
 fn mask_of(owner: &[u8], id: u8) -> Mask {
     Mask {
         width: W,
@@ -464,7 +474,6 @@ fn flat_carton_with_flap_seam_is_one_box() {
     };
     let (mut rgb, depth, owner) = s.render(&[Obj::Cuboid(bx)]);
     // The flap seam: a 3 mm dark line along the top's long axis.
-    let kk = k();
     let mut seam_px = 0;
     for v in 0..H {
         for u in 0..W {
@@ -472,12 +481,7 @@ fn flat_carton_with_flap_seam_is_one_box() {
             if owner[i] != 0 {
                 continue;
             }
-            let z = depth.depth_mm[i] as f64;
-            let p = Vector3::new(
-                (u as f64 - kk.cx) / kk.fx * z,
-                (v as f64 - kk.cy) / kk.fy * z,
-                z,
-            );
+            let p = back_project(u, v, depth.depth_mm[i] as f64);
             let l = bx.rotation.inverse() * (p - bx.center_mm);
             if (l.z - size.z / 2.0).abs() < 3.0 && l.y.abs() < 1.5 {
                 let px = rgb.get_pixel_mut(u, v);
@@ -518,19 +522,13 @@ fn flat_carton_with_flap_seam_is_one_box() {
 fn render_cartons(s: &Scene, cartons: &[OrientedBox], flap: bool) -> (RgbImage, DepthMap, Vec<u8>) {
     let objs: Vec<Obj> = cartons.iter().map(|b| Obj::Cuboid(*b)).collect();
     let (mut rgb, depth, owner) = s.render(&objs);
-    let kk = k();
     for v in 0..H {
         for u in 0..W {
             let i = (v * W + u) as usize;
             let Some(b) = cartons.get(owner[i] as usize) else {
                 continue;
             };
-            let z = depth.depth_mm[i] as f64;
-            let p = Vector3::new(
-                (u as f64 - kk.cx) / kk.fx * z,
-                (v as f64 - kk.cy) / kk.fy * z,
-                z,
-            );
+            let p = back_project(u, v, depth.depth_mm[i] as f64);
             let l = b.rotation.inverse() * (p - b.center_mm);
             let half = b.size_mm / 2.0;
             // The face hit: the axis along which the point is nearest its extent.
