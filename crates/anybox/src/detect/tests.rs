@@ -65,6 +65,19 @@ impl Scene {
         self.p0 + right * x + fwd * along + self.up * height
     }
 
+    /// A box frame standing on the table (local z up), turned by `yaw_deg` about the table
+    /// normal from local x = image right.
+    fn standing(&self, yaw_deg: f64) -> Rotation3<f64> {
+        let right = Vector3::x();
+        let fwd = self.up.cross(&right).normalize();
+        let yaw = Rotation3::from_axis_angle(
+            &nalgebra::Unit::new_normalize(self.up),
+            yaw_deg.to_radians(),
+        );
+        let m = nalgebra::Matrix3::from_columns(&[yaw * right, yaw * fwd, self.up]);
+        Rotation3::from_matrix_unchecked(m)
+    }
+
     fn render(&self, objs: &[Obj]) -> (RgbImage, DepthMap, Vec<u8>) {
         let kk = k();
         let mut rgb = RgbImage::new(W, H);
@@ -201,13 +214,9 @@ fn iou(a: &Mask, b: &Mask) -> f64 {
 
 fn table_box(s: &Scene) -> OrientedBox {
     let size = Vector3::new(200.0, 150.0, 100.0);
-    let right = Vector3::x();
-    let fwd = s.up.cross(&right).normalize();
-    // Yawed by 25° about the table normal.
-    let yaw = Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(s.up), 25f64.to_radians());
-    let m = nalgebra::Matrix3::from_columns(&[yaw * right, yaw * fwd, s.up]);
     OrientedBox {
-        rotation: Rotation3::from_matrix_unchecked(m),
+        // Yawed by 25° about the table normal.
+        rotation: s.standing(25.0),
         center_mm: s.on_table(-60.0, 0.0, size.z / 2.0),
         size_mm: size,
     }
@@ -463,12 +472,8 @@ fn config_json_partial_and_round_trip() {
 fn flat_carton_with_flap_seam_is_one_box() {
     let s = Scene::new();
     let size = Vector3::new(320.0, 220.0, 45.0);
-    let right = Vector3::x();
-    let fwd = s.up.cross(&right).normalize();
-    let yaw = Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(s.up), 65f64.to_radians());
-    let m = nalgebra::Matrix3::from_columns(&[yaw * right, yaw * fwd, s.up]);
     let bx = OrientedBox {
-        rotation: Rotation3::from_matrix_unchecked(m),
+        rotation: s.standing(65.0),
         center_mm: s.on_table(-30.0, 0.0, size.z / 2.0),
         size_mm: size,
     };
@@ -558,20 +563,15 @@ fn render_cartons(s: &Scene, cartons: &[OrientedBox], flap: bool) -> (RgbImage, 
 fn touching_plain_boxes_are_not_taken_for_halves() {
     let s = Scene::new();
     let size = Vector3::new(360.0, 150.0, 120.0);
-    let right = Vector3::x();
-    let fwd = s.up.cross(&right).normalize();
     // Yawed by 35°: the end faces show. (At 20° the left one is a sliver a few pixels wide,
     // and the pair cannot be told from one carton with a flap seam.)
-    let yaw = Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(s.up), 35f64.to_radians());
-    let rot = Rotation3::from_matrix_unchecked(nalgebra::Matrix3::from_columns(&[
-        yaw * right,
-        yaw * fwd,
-        s.up,
-    ]));
+    let rot = s.standing(35.0);
     let cartons: Vec<OrientedBox> = (0..2)
         .map(|j| OrientedBox {
             rotation: rot,
-            center_mm: s.on_table(0.0, 0.0, size.z / 2.0) + yaw * fwd * ((j as f64 - 0.5) * size.y),
+            // Side by side along the boxes' local y.
+            center_mm: s.on_table(0.0, 0.0, size.z / 2.0)
+                + rot.matrix().column(1) * ((j as f64 - 0.5) * size.y),
             size_mm: size,
         })
         .collect();
@@ -610,10 +610,7 @@ fn touching_plain_boxes_are_not_taken_for_halves() {
 fn flap_seam_halves_pair_into_whole_tops_seen_from_above() {
     let s = Scene::with_elevation(90.0);
     let size = Vector3::new(300.0, 200.0, 150.0);
-    let right = Vector3::x();
-    let fwd = s.up.cross(&right).normalize();
-    let rot =
-        Rotation3::from_matrix_unchecked(nalgebra::Matrix3::from_columns(&[right, fwd, s.up]));
+    let rot = s.standing(0.0);
     let cartons: Vec<OrientedBox> = (0..3)
         .map(|j| OrientedBox {
             rotation: rot,
@@ -656,12 +653,9 @@ fn flap_seam_halves_pair_into_whole_tops_seen_from_above() {
 #[test]
 fn touching_boxes_of_different_heights_come_out_separately() {
     let s = Scene::new();
-    let right = Vector3::x();
-    let fwd = s.up.cross(&right).normalize();
-    let m = nalgebra::Matrix3::from_columns(&[right, fwd, s.up]);
     let cuboid = |x: f64, size: Vector3<f64>| {
         Obj::Cuboid(OrientedBox {
-            rotation: Rotation3::from_matrix_unchecked(m),
+            rotation: s.standing(0.0),
             center_mm: s.on_table(x, 0.0, size.z / 2.0),
             size_mm: size,
         })
@@ -745,13 +739,9 @@ fn ycbv_both_boxes_found_in_every_frame() {
 fn small_lone_faces_are_dropped() {
     // A 70 × 50 × 40 mm block flat on the table: only its top is seen as a face, < 1000 px.
     let s = Scene::new();
-    let right = Vector3::x();
-    let fwd = s.up.cross(&right).normalize();
     let size = Vector3::new(70.0, 50.0, 40.0);
     let tile = OrientedBox {
-        rotation: Rotation3::from_matrix_unchecked(nalgebra::Matrix3::from_columns(&[
-            right, fwd, s.up,
-        ])),
+        rotation: s.standing(0.0),
         center_mm: s.on_table(80.0, 0.0, size.z / 2.0),
         size_mm: size,
     };
