@@ -25,7 +25,7 @@ use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 use super::boxes::{is_face, robust_range, v3};
 use super::grid::Grid;
-use super::regions::{plane_tol, Region, NONE};
+use super::regions::{compact_labels, plane_tol, Region, NONE};
 use super::DetectConfig;
 
 /// What pairing needs of one planar region.
@@ -147,9 +147,8 @@ pub(crate) fn pair_halves(
                 .iter()
                 .map(|&c| {
                     let h = &halves[c];
-                    let u = (g.k.fx * h.centre.x / h.centre.z + g.k.cx) * g.step as f64;
-                    let v = (g.k.fy * h.centre.y / h.centre.z + g.k.cy) * g.step as f64;
-                    format!("({u:.0},{v:.0} {:.0}x{:.0})", h.len_mm, h.width_mm)
+                    let q = g.k.project(&h.centre.into()).unwrap_or_default() * g.step as f64;
+                    format!("({:.0},{:.0} {:.0}x{:.0})", q.x, q.y, h.len_mm, h.width_mm)
                 })
                 .collect();
             eprintln!("halves chain {k} clean {first} {last}: {}", desc.join(" "));
@@ -169,21 +168,8 @@ pub(crate) fn pair_halves(
     if !joined {
         return n;
     }
-    // Pairs are disjoint, so every label's root is its parent; renumber roots in order.
-    let mut new_id = vec![NONE; n];
-    let mut next = 0u32;
-    for l in labels.iter_mut() {
-        if *l == NONE {
-            continue;
-        }
-        let r = parent[*l as usize];
-        if new_id[r] == NONE {
-            new_id[r] = next;
-            next += 1;
-        }
-        *l = new_id[r];
-    }
-    next as usize
+    // Pairs are disjoint, so every label's root is its parent.
+    compact_labels(labels, n, |l| parent[l])
 }
 
 /// A planar region as a possible half; `None` when it is not elongated enough.
@@ -275,11 +261,10 @@ fn joint_seen(g: &Grid, a: &Half, b: &Half) -> bool {
         for sy in [-1.0, 1.0] {
             for dz in [0.0, -150.0] {
                 let p = m + across * (25.0 * sx) + long * ((half_len + 30.0) * sy) + up * dz;
-                if p.z <= 1.0 {
+                let Some(q) = g.k.project(&p.into()).filter(|_| p.z > 1.0) else {
                     return false;
-                }
-                let (u, v) = (g.k.fx * p.x / p.z + g.k.cx, g.k.fy * p.y / p.z + g.k.cy);
-                (u0, v0, u1, v1) = (u0.min(u), v0.min(v), u1.max(u), v1.max(v));
+                };
+                (u0, v0, u1, v1) = (u0.min(q.x), v0.min(q.y), u1.max(q.x), v1.max(q.y));
             }
         }
     }
@@ -328,11 +313,10 @@ fn clean_end(g: &Grid, h: &Half, out: &Vector3<f64>, cfg: &DetectConfig) -> bool
     for k in 0..9 {
         let t = (k as f64 / 8.0 - 0.5) * 0.7 * h.len_mm;
         let p = h.centre + out * reach + h.long * t;
-        if p.z <= 0.0 {
+        let Some(q) = g.k.project(&p.into()) else {
             continue;
-        }
-        let u = (g.k.fx * p.x / p.z + g.k.cx).round();
-        let v = (g.k.fy * p.y / p.z + g.k.cy).round();
+        };
+        let (u, v) = (q.x.round(), q.y.round());
         if u < 0.0 || v < 0.0 || u >= g.w as f64 || v >= g.h as f64 {
             continue;
         }

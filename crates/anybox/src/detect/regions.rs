@@ -604,14 +604,24 @@ pub(crate) fn bridge_tape(
             }
         }
     }
-    // Compact: every label to its root, roots renumbered in order.
+    compact_labels(labels, n, |l| root(&mut parent, l))
+}
+
+/// Relabels `labels` (values below `n`, or `NONE`) through `root` (every label to the one it
+/// joined), the roots renumbered 0, 1, … in order of first appearance. Returns how many
+/// labels are left.
+pub(crate) fn compact_labels(
+    labels: &mut [u32],
+    n: usize,
+    mut root: impl FnMut(usize) -> usize,
+) -> usize {
     let mut new_id = vec![NONE; n];
     let mut next = 0u32;
     for l in labels.iter_mut() {
         if *l == NONE {
             continue;
         }
-        let r = root(&mut parent, *l as usize);
+        let r = root(*l as usize);
         if new_id[r] == NONE {
             new_id[r] = next;
             next += 1;

@@ -185,16 +185,6 @@ impl Scene {
     }
 }
 
-/// The camera-frame point seen at pixel (u, v) at depth `z_mm`, mm.
-fn back_project(u: u32, v: u32, z_mm: f64) -> Vector3<f64> {
-    let kk = k();
-    Vector3::new(
-        (u as f64 - kk.cx) / kk.fx * z_mm,
-        (v as f64 - kk.cy) / kk.fy * z_mm,
-        z_mm,
-    )
-}
-
 fn mask_of(owner: &[u8], id: u8) -> Mask {
     Mask {
         width: W,
@@ -486,7 +476,9 @@ fn flat_carton_with_flap_seam_is_one_box() {
             if owner[i] != 0 {
                 continue;
             }
-            let p = back_project(u, v, depth.depth_mm[i] as f64);
+            let p = k()
+                .back_project(u as f64, v as f64, depth.depth_mm[i] as f64)
+                .coords;
             let l = bx.rotation.inverse() * (p - bx.center_mm);
             if (l.z - size.z / 2.0).abs() < 3.0 && l.y.abs() < 1.5 {
                 let px = rgb.get_pixel_mut(u, v);
@@ -533,7 +525,9 @@ fn render_cartons(s: &Scene, cartons: &[OrientedBox], flap: bool) -> (RgbImage, 
             let Some(b) = cartons.get(owner[i] as usize) else {
                 continue;
             };
-            let p = back_project(u, v, depth.depth_mm[i] as f64);
+            let p = k()
+                .back_project(u as f64, v as f64, depth.depth_mm[i] as f64)
+                .coords;
             let l = b.rotation.inverse() * (p - b.center_mm);
             let half = b.size_mm / 2.0;
             // The face hit: the axis along which the point is nearest its extent.
