@@ -78,6 +78,16 @@ impl Scene {
         Rotation3::from_matrix_unchecked(m)
     }
 
+    /// A box of `size` (mm) standing on the table at (x, along) as in [`Scene::on_table`],
+    /// turned by `yaw_deg` as in [`Scene::standing`].
+    fn standing_box(&self, yaw_deg: f64, x: f64, along: f64, size: Vector3<f64>) -> OrientedBox {
+        OrientedBox {
+            rotation: self.standing(yaw_deg),
+            center_mm: self.on_table(x, along, size.z / 2.0),
+            size_mm: size,
+        }
+    }
+
     fn render(&self, objs: &[Obj]) -> (RgbImage, DepthMap, Vec<u8>) {
         let kk = k();
         let mut rgb = RgbImage::new(W, H);
@@ -203,13 +213,8 @@ fn iou(a: &Mask, b: &Mask) -> f64 {
 }
 
 fn table_box(s: &Scene) -> OrientedBox {
-    let size = Vector3::new(200.0, 150.0, 100.0);
-    OrientedBox {
-        // Yawed by 25° about the table normal.
-        rotation: s.standing(25.0),
-        center_mm: s.on_table(-60.0, 0.0, size.z / 2.0),
-        size_mm: size,
-    }
+    // Yawed by 25° about the table normal.
+    s.standing_box(25.0, -60.0, 0.0, Vector3::new(200.0, 150.0, 100.0))
 }
 
 #[test]
@@ -462,11 +467,7 @@ fn config_json_partial_and_round_trip() {
 fn flat_carton_with_flap_seam_is_one_box() {
     let s = Scene::new();
     let size = Vector3::new(320.0, 220.0, 45.0);
-    let bx = OrientedBox {
-        rotation: s.standing(65.0),
-        center_mm: s.on_table(-30.0, 0.0, size.z / 2.0),
-        size_mm: size,
-    };
+    let bx = s.standing_box(65.0, -30.0, 0.0, size);
     let (mut rgb, depth, owner) = s.render(&[Obj::Cuboid(bx)]);
     // The flap seam: a 3 mm dark line along the top's long axis.
     let mut seam_px = 0;
@@ -604,13 +605,8 @@ fn touching_plain_boxes_are_not_taken_for_halves() {
 fn flap_seam_halves_pair_into_whole_tops_seen_from_above() {
     let s = Scene::with_elevation(90.0);
     let size = Vector3::new(300.0, 200.0, 150.0);
-    let rot = s.standing(0.0);
     let cartons: Vec<OrientedBox> = (0..3)
-        .map(|j| OrientedBox {
-            rotation: rot,
-            center_mm: s.on_table(0.0, (j as f64 - 1.0) * size.y, size.z / 2.0),
-            size_mm: size,
-        })
+        .map(|j| s.standing_box(0.0, 0.0, (j as f64 - 1.0) * size.y, size))
         .collect();
     let (rgb, depth, owner) = render_cartons(&s, &cartons, true);
     let kk = k();
@@ -647,13 +643,7 @@ fn flap_seam_halves_pair_into_whole_tops_seen_from_above() {
 #[test]
 fn touching_boxes_of_different_heights_come_out_separately() {
     let s = Scene::new();
-    let cuboid = |x: f64, size: Vector3<f64>| {
-        Obj::Cuboid(OrientedBox {
-            rotation: s.standing(0.0),
-            center_mm: s.on_table(x, 0.0, size.z / 2.0),
-            size_mm: size,
-        })
-    };
+    let cuboid = |x: f64, size: Vector3<f64>| Obj::Cuboid(s.standing_box(0.0, x, 0.0, size));
     // Widths 160 and 140 mm, touching at x = 0; heights 90 and 190 mm; same depth (flush).
     let objs = [
         cuboid(-80.0, Vector3::new(160.0, 150.0, 90.0)),
@@ -733,12 +723,7 @@ fn ycbv_both_boxes_found_in_every_frame() {
 fn small_lone_faces_are_dropped() {
     // A 70 × 50 × 40 mm block flat on the table: only its top is seen as a face, < 1000 px.
     let s = Scene::new();
-    let size = Vector3::new(70.0, 50.0, 40.0);
-    let tile = OrientedBox {
-        rotation: s.standing(0.0),
-        center_mm: s.on_table(80.0, 0.0, size.z / 2.0),
-        size_mm: size,
-    };
+    let tile = s.standing_box(0.0, 80.0, 0.0, Vector3::new(70.0, 50.0, 40.0));
     let (rgb, depth, owner) = s.render(&[Obj::Cuboid(tile)]);
     let gt = mask_of(&owner, 0);
     let found = |cfg: &DetectConfig| {
