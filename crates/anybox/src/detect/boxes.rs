@@ -687,7 +687,7 @@ pub(crate) fn fill(
                     inner[i]
                 } else {
                     let (u, v) = ((i % w) as f64, (i / w) as f64);
-                    let dir = Vector3::new((u - g.k.cx) / g.k.fx, (v - g.k.cy) / g.k.fy, 1.0);
+                    let dir = g.k.ray(u, v);
                     let tol = plane_tol(cfg, z);
                     ray_box_intersection(&Point3::origin(), &dir, &grown).is_some_and(
                         |(t0, t1, _)| z >= t0 - tol && z <= t1.min(t0 + 2.0 * margin + 3.0 * tol),
@@ -865,7 +865,7 @@ pub(crate) fn score_faces(
             continue;
         }
         let (u, v) = ((i % w) as f64, (i / w) as f64);
-        let dir = Vector3::new((u - g.k.cx) / g.k.fx, (v - g.k.cy) / g.k.fy, 1.0);
+        let dir = g.k.ray(u, v);
         if let Some((t, _, _)) = ray_box_intersection(&Point3::origin(), &dir, &bx) {
             checked += 1;
             if z > t + cfg.see_through_margin_mm + 2.0 * plane_tol(cfg, z) {

@@ -95,7 +95,7 @@ impl Scene {
         let mut owner = vec![u8::MAX; (W * H) as usize];
         for v in 0..H {
             for u in 0..W {
-                let r = Vector3::new((u as f64 - kk.cx) / kk.fx, (v as f64 - kk.cy) / kk.fy, 1.0);
+                let r = kk.ray(u as f64, v as f64);
                 // Table.
                 let den = self.up.dot(&r);
                 let mut best: Option<(f64, Vector3<f64>, [f64; 3], u8)> = None;
