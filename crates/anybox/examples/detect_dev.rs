@@ -167,8 +167,10 @@ fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], objs: Option<&[u32]>, ta
                 _ => "mixed",
             };
             println!(
-                "KIND {kind} prec {prec:.2} rec {rec:.2} score {:.3} faces {}",
-                d.score, d.n_faces
+                "KIND {kind} prec {prec:.2} rec {rec:.2} score {:.3} faces {} dup {} frame {} bbox {:?}",
+                d.score,
+                d.n_faces,
+                matched.get(k).copied().unwrap_or(false), tally.frames, d.mask.bbox()
             );
         }
         let mut best: Option<(usize, f64)> = None;
@@ -202,6 +204,41 @@ fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], objs: Option<&[u32]>, ta
                 tally.ignored += 1;
             }
             None => tally.scored.push((d.score, false)),
+        }
+    }
+    if std::env::var("MISS").is_ok() {
+        // Why each wanted GT went unmatched: no detection on it, only a part of it detected,
+        // or its best detection also takes in other surfaces.
+        for k in (0..n).filter(|&k| want[k] && !matched[k]) {
+            let (mut rec, mut prec) = (0.0f64, 0.0f64);
+            for d in dets {
+                let (mut i, mut a) = (0usize, 0usize);
+                for (p, &b) in d.mask.data.iter().enumerate() {
+                    if b {
+                        a += 1;
+                        i += (label.get(p) == Some(&(k as u16))) as usize;
+                    }
+                }
+                let r = i as f64 / gt_area[k].max(1) as f64;
+                if r > rec {
+                    rec = r;
+                    prec = i as f64 / a.max(1) as f64;
+                }
+            }
+            let why = if rec < 0.1 {
+                "none"
+            } else if prec > 0.85 {
+                "split"
+            } else {
+                "merged"
+            };
+            println!(
+                "MISS {why} visib {:.2} px {} rec {rec:.2} prec {prec:.2} frame {} bbox {:?}",
+                gts[k].1,
+                gt_area[k],
+                tally.frames,
+                gts[k].0.bbox()
+            );
         }
     }
     if std::env::var("VERBOSE").is_ok() {
@@ -511,8 +548,23 @@ fn main() {
                             let _ = img.save(format!("{dir}/diff_{name}_{s}_{k}.png"));
                         }
                     }
+                    // Precision and recall of the best detection's mask against this GT.
+                    let (prec, rec) = if j == usize::MAX {
+                        (0.0, 0.0)
+                    } else {
+                        let (mut i, mut a) = (0usize, 0usize);
+                        for (&x, &y) in masks[j].data.iter().zip(&gtm[k].data) {
+                            a += x as usize;
+                            i += (x && y) as usize;
+                        }
+                        (
+                            i as f64 / a.max(1) as f64,
+                            i as f64 / gtm[k].count().max(1) as f64,
+                        )
+                    };
+                    let faces = dets.get(j).map_or(0, |d| d.n_faces);
                     println!(
-                        "  3d {name} s{s} gt {k} visib {:.2} size {:.0}x{:.0}x{:.0} mask-iou {miou:.2} iou3d det {d3:.2} gt {:.2} alone det {d1:.2} gt {g1:.2}",
+                        "  3d {name} s{s} gt {k} visib {:.2} size {:.0}x{:.0}x{:.0} mask-iou {miou:.2} iou3d det {d3:.2} gt {:.2} alone det {d1:.2} gt {g1:.2} prec {prec:.2} rec {rec:.2} faces {faces}",
                         b.visib_fract, b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z, i3(&est_g[k])
                     );
                 }
@@ -612,6 +664,9 @@ fn main() {
                     &cfg,
                 );
                 dump(&d.join(format!("{name}_{s}.png")), &v.rgb, &dets, &gts);
+                if std::env::var("RAW").is_ok() {
+                    let _ = v.rgb.save(d.join(format!("{name}_{s}_raw.png")));
+                }
             }
         }
         println!("{}", tally.line(name));

@@ -470,9 +470,10 @@ pub(crate) fn group_candidates(
         for (k, r) in regions.iter().enumerate() {
             if r.n >= 100 {
                 eprintln!(
-                    "region {k} n {} face {} inl {:.2} spread {:.1} bend {:.1} normal {:.2} {:.2} {:.2}",
+                    "region {k} n {} face {} inl {:.2} spread {:.1} bend {:.1} normal {:.2} {:.2} {:.2} at {:?}",
                     r.n, face[k], r.inlier_frac, r.normal_spread_deg, r.bend_deg,
-                    r.normal.x, r.normal.y, r.normal.z
+                    r.normal.x, r.normal.y, r.normal.z,
+                    g.k.project(&Point3::from(r.centroid)).map(|p| (p.x as i32, p.y as i32))
                 );
             }
         }
@@ -539,14 +540,16 @@ pub(crate) fn group_candidates(
             && reg.inlier_frac >= cfg.min_plane_inlier_frac
             && reg.normal_spread_deg <= cfg.max_normal_spread_deg
     };
+    let big_enough =
+        |c: usize, f: usize| regions[c].n as f64 >= cfg.curved_veto_min_ratio * regions[f].n as f64;
     let mut touches_curved = vec![false; n];
     for (&(a, b), &c) in &contact {
         if c >= cfg.min_contact_cells {
             let (a, b) = (a as usize, b as usize);
-            if face[a] && curved(b) {
+            if face[a] && curved(b) && big_enough(b, a) {
                 touches_curved[a] = true;
             }
-            if face[b] && curved(a) {
+            if face[b] && curved(a) && big_enough(a, b) {
                 touches_curved[b] = true;
             }
         }
@@ -735,6 +738,29 @@ fn score_group(
     score_faces(g, all, &faces, &normals, fit, &member, &unknown, cfg)
 }
 
+/// How much of a lone face lies in the corners of its fitted rectangle (`bx`, axis 0 the
+/// normal): the fraction of its cells whose in-plane coordinates are both beyond
+/// `CORNER` of the half-extents, over the fraction a uniformly covered rectangle puts there
+/// ((1 − `CORNER`)²). About 1 for a rectangle, even one with holes; 0 for a disc, whose
+/// rim passes inside the corner squares (at `CORNER` = 0.75, (0.75, 0.75) is 1.06 radii out).
+fn corner_occupancy(g: &Grid, cells: &[u32], bx: &OrientedBox) -> f64 {
+    const CORNER: f64 = 0.75;
+    let (a1, a2) = (bx.axis(1), bx.axis(2));
+    let (h1, h2) = (bx.size_mm.y / 2.0, bx.size_mm.z / 2.0);
+    if cells.is_empty() || h1 <= 0.0 || h2 <= 0.0 {
+        return 0.0;
+    }
+    let c = bx.center_mm;
+    let n = cells
+        .iter()
+        .filter(|&&i| {
+            let d = v3(&g.p[i as usize]) - c;
+            (d.dot(&a1) / h1).abs() > CORNER && (d.dot(&a2) / h2).abs() > CORNER
+        })
+        .count();
+    n as f64 / cells.len() as f64 / ((1.0 - CORNER) * (1.0 - CORNER))
+}
+
 /// Cuboid fit and box-likeness of up to three faces (`faces[k]`: the cells of the face with
 /// plane normal `normals[k]`, the largest first), given the plane `fit` (0..1) of their cells.
 /// `member(i)`: cell `i` belongs to the candidate; `unknown(i)`: a non-member cell that counts
@@ -885,6 +911,10 @@ pub(crate) fn score_faces(
     let score = (fit * iou * depth_ok * faces_factor).clamp(0.0, 1.0);
     // A lone face must look like a rectangle: a disc (a cylinder's cap) covers π/4 of its box.
     if n_faces == 1 && iou < cfg.min_one_face_iou {
+        return None;
+    }
+    // ... and fill its corners: a disc's rim passes inside them.
+    if n_faces == 1 && corner_occupancy(g, faces[0], &bx) < cfg.min_one_face_corners {
         return None;
     }
     if dbg && all.len() > 300 {
