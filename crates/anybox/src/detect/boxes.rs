@@ -761,6 +761,50 @@ fn corner_occupancy(g: &Grid, cells: &[u32], bx: &OrientedBox) -> f64 {
     n as f64 / cells.len() as f64 / ((1.0 - CORNER) * (1.0 - CORNER))
 }
 
+/// Figure or ground: of the valid cells in a ring `FRAME_RING` cells wide around a lone face,
+/// the fraction whose surface lies in front of the face's plane (continued to them) by more
+/// than twice the plane tolerance. A box's face stands in front of what surrounds it; a patch
+/// of wall seen between shelf boards and uprights is framed by nearer things.
+fn framed_fraction(g: &Grid, cells: &[u32], n: &Vector3<f64>, cfg: &DetectConfig) -> f64 {
+    const FRAME_RING: usize = 3;
+    let (w, h) = (g.w, g.h);
+    let mut offs: Vec<f64> = cells.iter().map(|&i| v3(&g.p[i as usize]).dot(n)).collect();
+    let (a, b) = robust_range(&mut offs, 0.5);
+    let d = (a + b) / 2.0;
+    let mut mark = vec![0u8; w * h];
+    for &i in cells {
+        mark[i as usize] = 1;
+    }
+    let (mut closer, mut valid) = (0usize, 0usize);
+    for &c in cells {
+        let (u0, v0) = (c as usize % w, c as usize / w);
+        for v in v0.saturating_sub(FRAME_RING)..(v0 + FRAME_RING + 1).min(h) {
+            for u in u0.saturating_sub(FRAME_RING)..(u0 + FRAME_RING + 1).min(w) {
+                let j = v * w + u;
+                if mark[j] != 0 {
+                    continue;
+                }
+                mark[j] = 2;
+                let z = g.z[j] as f64;
+                if z <= 0.0 {
+                    continue;
+                }
+                let r = g.k.ray(u as f64, v as f64);
+                let den = r.dot(n);
+                if den.abs() < 1e-6 {
+                    continue;
+                }
+                let z_plane = d / den;
+                valid += 1;
+                if z < z_plane - 2.0 * plane_tol(cfg, z) {
+                    closer += 1;
+                }
+            }
+        }
+    }
+    closer as f64 / valid.max(1) as f64
+}
+
 /// Cuboid fit and box-likeness of up to three faces (`faces[k]`: the cells of the face with
 /// plane normal `normals[k]`, the largest first), given the plane `fit` (0..1) of their cells.
 /// `member(i)`: cell `i` belongs to the candidate; `unknown(i)`: a non-member cell that counts
@@ -909,6 +953,10 @@ pub(crate) fn score_faces(
         _ => 1.0,
     };
     let score = (fit * iou * depth_ok * faces_factor).clamp(0.0, 1.0);
+    // A lone face framed by nearer surfaces is background seen through a gap.
+    if n_faces == 1 && framed_fraction(g, &all, &normals[0], cfg) > cfg.max_framed_fraction {
+        return None;
+    }
     // A lone face must look like a rectangle: a disc (a cylinder's cap) covers π/4 of its box.
     if n_faces == 1 && iou < cfg.min_one_face_iou {
         return None;

@@ -818,3 +818,55 @@ fn a_thin_bent_sliver_does_not_veto_the_box_top_beside_it() {
     });
     assert!(lost < 0.5, "best mask IoU with the old veto {lost}");
 }
+
+#[test]
+fn background_seen_through_a_frame_gives_no_detection() {
+    // A panel standing behind a frame of two posts and a crossbar, as a wall behind shelf
+    // uprights and boards: the panel's visible patches are flat rectangles, but nearer
+    // things surround them.
+    let s = Scene::new();
+    let panel = s.standing_box(0.0, 0.0, 250.0, Vector3::new(520.0, 20.0, 420.0));
+    let post = |x: f64| s.standing_box(0.0, x, 0.0, Vector3::new(40.0, 40.0, 460.0));
+    let bar = OrientedBox {
+        rotation: s.standing(0.0),
+        center_mm: s.on_table(0.0, 0.0, 210.0),
+        size_mm: Vector3::new(400.0, 40.0, 40.0),
+    };
+    let objs = [
+        Obj::Cuboid(panel),
+        Obj::Cuboid(post(-180.0)),
+        Obj::Cuboid(post(180.0)),
+        Obj::Cuboid(bar),
+    ];
+    let (rgb, depth, owner) = s.render(&objs);
+    let on_panel = mask_of(&owner, 0);
+    assert!(on_panel.count() > 10_000, "panel in view");
+    let panel_dets = |cfg: &DetectConfig| {
+        detect_boxes(Some(&rgb), &depth, &k(), cfg)
+            .unwrap()
+            .into_iter()
+            .filter(|d| {
+                let inside = d
+                    .mask
+                    .data
+                    .iter()
+                    .zip(&on_panel.data)
+                    .filter(|(a, b)| **a && **b)
+                    .count();
+                2 * inside > d.mask.count()
+            })
+            .map(|d| (d.score, d.n_faces, d.mask.count()))
+            .collect::<Vec<_>>()
+    };
+    let found = panel_dets(&DetectConfig::default());
+    assert!(
+        found.is_empty(),
+        "detections on the framed panel: {found:?}"
+    );
+    // Premise: without the figure-ground test the panel's patches are taken for boxes.
+    let premise = panel_dets(&DetectConfig {
+        max_framed_fraction: 1.0,
+        ..DetectConfig::default()
+    });
+    assert!(!premise.is_empty(), "premise");
+}
