@@ -26,6 +26,7 @@ use rayon::prelude::*;
 use super::grid::Grid;
 use super::regions::{plane_tol, Region, NONE};
 use super::DetectConfig;
+use crate::observation::median;
 
 /// A scored candidate on the grid.
 pub(crate) struct Candidate {
@@ -768,24 +769,41 @@ fn corner_occupancy(g: &Grid, cells: &[u32], bx: &OrientedBox) -> f64 {
 fn framed_fraction(g: &Grid, cells: &[u32], n: &Vector3<f64>, cfg: &DetectConfig) -> f64 {
     const FRAME_RING: usize = 3;
     let (w, h) = (g.w, g.h);
-    let mut offs: Vec<f64> = cells.iter().map(|&i| v3(&g.p[i as usize]).dot(n)).collect();
-    let (a, b) = robust_range(&mut offs, 0.5);
-    let d = (a + b) / 2.0;
-    let mut mark = vec![0u8; w * h];
-    for &i in cells {
-        mark[i as usize] = 1;
+    if cells.is_empty() {
+        return 0.0;
+    }
+    let d = median(cells.iter().map(|&i| v3(&g.p[i as usize]).dot(n)).collect());
+    // Marks on the face's bounding box grown by the ring, not on the whole grid: this runs for
+    // every lone face.
+    let (mut u_lo, mut v_lo, mut u_hi, mut v_hi) = (usize::MAX, usize::MAX, 0, 0);
+    for &c in cells {
+        let (u, v) = (c as usize % w, c as usize / w);
+        (u_lo, v_lo, u_hi, v_hi) = (u_lo.min(u), v_lo.min(v), u_hi.max(u), v_hi.max(v));
+    }
+    let (u_lo, v_lo) = (
+        u_lo.saturating_sub(FRAME_RING),
+        v_lo.saturating_sub(FRAME_RING),
+    );
+    let (u_hi, v_hi) = (
+        (u_hi + FRAME_RING).min(w - 1),
+        (v_hi + FRAME_RING).min(h - 1),
+    );
+    let bw = u_hi - u_lo + 1;
+    let at = |u: usize, v: usize| (v - v_lo) * bw + (u - u_lo);
+    let mut mark = vec![0u8; bw * (v_hi - v_lo + 1)];
+    for &c in cells {
+        mark[at(c as usize % w, c as usize / w)] = 1;
     }
     let (mut closer, mut valid) = (0usize, 0usize);
     for &c in cells {
         let (u0, v0) = (c as usize % w, c as usize / w);
-        for v in v0.saturating_sub(FRAME_RING)..(v0 + FRAME_RING + 1).min(h) {
-            for u in u0.saturating_sub(FRAME_RING)..(u0 + FRAME_RING + 1).min(w) {
-                let j = v * w + u;
-                if mark[j] != 0 {
+        for v in v0.saturating_sub(FRAME_RING)..=(v0 + FRAME_RING).min(h - 1) {
+            for u in u0.saturating_sub(FRAME_RING)..=(u0 + FRAME_RING).min(w - 1) {
+                if mark[at(u, v)] != 0 {
                     continue;
                 }
-                mark[j] = 2;
-                let z = g.z[j] as f64;
+                mark[at(u, v)] = 2;
+                let z = g.z[v * w + u] as f64;
                 if z <= 0.0 {
                     continue;
                 }
@@ -953,16 +971,17 @@ pub(crate) fn score_faces(
         _ => 1.0,
     };
     let score = (fit * iou * depth_ok * faces_factor).clamp(0.0, 1.0);
-    // A lone face framed by nearer surfaces is background seen through a gap.
-    if n_faces == 1 && framed_fraction(g, &all, &normals[0], cfg) > cfg.max_framed_fraction {
-        return None;
-    }
     // A lone face must look like a rectangle: a disc (a cylinder's cap) covers π/4 of its box.
     if n_faces == 1 && iou < cfg.min_one_face_iou {
         return None;
     }
     // ... and fill its corners: a disc's rim passes inside them.
     if n_faces == 1 && corner_occupancy(g, faces[0], &bx) < cfg.min_one_face_corners {
+        return None;
+    }
+    // A lone face framed by nearer surfaces is background seen through a gap (last: the ring
+    // walk costs the most of the three).
+    if n_faces == 1 && framed_fraction(g, &all, &normals[0], cfg) > cfg.max_framed_fraction {
         return None;
     }
     if dbg && all.len() > 300 {
