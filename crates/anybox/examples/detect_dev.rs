@@ -563,6 +563,21 @@ fn main() {
                         )
                     };
                     let faces = dets.get(j).map_or(0, |d| d.n_faces);
+                    // Largest share of this estimate's volume inside another detection's.
+                    let pen = match est_d.get(j) {
+                        Some(Ok(e)) => est_d
+                            .iter()
+                            .enumerate()
+                            .filter(|(o, _)| *o != j)
+                            .filter_map(|(_, x)| x.as_ref().ok())
+                            .map(|x| {
+                                anybox::geom::iou::intersection_volume_mm3(&e.pose, &x.pose)
+                                    / e.pose.volume_mm3()
+                            })
+                            .fold(0.0, f64::max),
+                        _ => -1.0,
+                    };
+                    print!("  pen {pen:.2}");
                     println!(
                         "  3d {name} s{s} gt {k} visib {:.2} size {:.0}x{:.0}x{:.0} mask-iou {miou:.2} iou3d det {d3:.2} gt {:.2} alone det {d1:.2} gt {g1:.2} prec {prec:.2} rec {rec:.2} faces {faces}",
                         b.visib_fract, b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z, i3(&est_g[k])

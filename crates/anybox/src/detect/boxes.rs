@@ -971,6 +971,14 @@ pub(crate) fn score_faces(
         _ => 1.0,
     };
     let score = (fit * iou * depth_ok * faces_factor).clamp(0.0, 1.0);
+    if dbg && n_faces == 1 && all.len() > 300 {
+        eprintln!(
+            "lone n {} iou {iou:.2} corners {:.2} framed {:.2} score {score:.2}",
+            all.len(),
+            corner_occupancy(g, faces[0], &bx),
+            framed_fraction(g, &all, &normals[0], cfg)
+        );
+    }
     // A lone face must look like a rectangle: a disc (a cylinder's cap) covers π/4 of its box.
     if n_faces == 1 && iou < cfg.min_one_face_iou {
         return None;

@@ -211,7 +211,46 @@ fn seams(img: &RgbImage, w: usize, h: usize, step: usize, cfg: &DetectConfig) ->
         }
     }
     let m = cfg.seam_min_pixels.max(1) as u16;
-    count.iter().map(|&c| c >= m).collect()
+    let seam: Vec<bool> = count.iter().map(|&c| c >= m).collect();
+    close_seam_gaps(&seam, w, h, cfg.seam_close_cells as usize)
+}
+
+/// Bridges gaps of up to `2 r − 1` cells in seam lines: a cell becomes a seam cell when seam
+/// cells lie within `r` cells on both sides of it along a row, a column or a diagonal, and
+/// neither cell beside it across that direction is one (a thin line, not a patch of noise). A
+/// crease a pixel or two wide aliases into a dashed line, and one gap lets the cartons on
+/// either side merge.
+fn close_seam_gaps(seam: &[bool], w: usize, h: usize, r: usize) -> Vec<bool> {
+    if r == 0 {
+        return seam.to_vec();
+    }
+    let at = |u: isize, v: isize| {
+        u >= 0
+            && v >= 0
+            && (u as usize) < w
+            && (v as usize) < h
+            && seam[v as usize * w + u as usize]
+    };
+    let mut out = seam.to_vec();
+    for v in 0..h as isize {
+        for u in 0..w as isize {
+            if seam[v as usize * w + u as usize] {
+                continue;
+            }
+            let bridged = [(1isize, 0isize), (0, 1), (1, 1), (1, -1)]
+                .iter()
+                .any(|&(du, dv)| {
+                    let side =
+                        |s: isize| (1..=r as isize).any(|d| at(u + s * d * du, v + s * d * dv));
+                    let thin = !(at(u - dv, v + du) || at(u + dv, v - du));
+                    thin && side(1) && side(-1)
+                });
+            if bridged {
+                out[v as usize * w + u as usize] = true;
+            }
+        }
+    }
+    out
 }
 
 fn points(z: &[f32], w: usize, h: usize, k: &Intrinsics) -> Vec<[f32; 3]> {
@@ -375,6 +414,44 @@ mod tests {
     /// seam cells.
     fn row_share(seam: &[bool], w: usize, gv: usize) -> f64 {
         (4..28).filter(|&u| seam[gv * w + u]).count() as f64 / 24.0
+    }
+
+    #[test]
+    fn dashed_seam_lines_are_closed_and_nothing_else_grows() {
+        let (w, h) = (24usize, 24usize);
+        let mut seam = vec![false; w * h];
+        // A diagonal line with one-cell gaps (every third cell missing), and a row with a
+        // two-cell gap.
+        for i in 2..17 {
+            seam[i * w + i] = i % 3 != 0;
+        }
+        for u in 2..20 {
+            seam[21 * w + u] = !(10..12).contains(&u);
+        }
+        let closed = close_seam_gaps(&seam, w, h, 1);
+        for i in 2..17 {
+            assert!(closed[i * w + i], "diagonal cell {i} still open");
+        }
+        // r = 1 bridges one-cell gaps only; r = 2 bridges the two-cell gap too.
+        assert!(!closed[21 * w + 10] && !closed[21 * w + 11]);
+        let wide = close_seam_gaps(&seam, w, h, 2);
+        assert!(wide[21 * w + 10] && wide[21 * w + 11]);
+        // No cell off the two lines turns into a seam cell.
+        let on_lines = |u: usize, v: usize| u == v && (2..17).contains(&u) || v == 21;
+        for v in 0..h {
+            for u in 0..w {
+                if !on_lines(u, v) {
+                    assert!(!closed[v * w + u] && !wide[v * w + u], "({u}, {v}) grew");
+                }
+            }
+        }
+        // A gap beside a parallel seam cell is a patch, not a line: left open.
+        let mut patch = vec![false; w * h];
+        for (u, v) in [(5, 5), (7, 5), (6, 4)] {
+            patch[v * w + u] = true;
+        }
+        assert!(!close_seam_gaps(&patch, w, h, 1)[5 * w + 6]);
+        assert_eq!(close_seam_gaps(&seam, w, h, 0), seam);
     }
 
     #[test]
