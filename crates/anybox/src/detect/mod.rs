@@ -214,9 +214,17 @@ pub struct DetectConfig {
     /// faces are slivers and clutter. Default 1000 (generated views, seeds 2026/7/11: 227 of
     /// 606 single-face detections were below it, none of them a true box).
     pub one_face_min_pixels: u32,
+    /// Evidence: the final score of a detection is its box-likeness times `px / (px + this)`,
+    /// `px` its mask's pixel count (at 640 × 480; scaled by image area). A small mask is more
+    /// often a partial face, a sliver or clutter, and its box is estimated from fewer points.
+    /// It only ranks the output: selection between candidates uses box-likeness alone.
+    /// 0 disables. Default 2000 (3D AP@0.5 of the estimates, generated views, seeds 2026 / 7 /
+    /// 11, four layouts: higher in 11 of 12 sets, by up to 0.05 on shelves, −0.002 at worst).
+    pub evidence_half_pixels: f64,
     /// Score factor for two visible faces. Default 0.9.
     pub two_face_factor: f64,
-    /// Candidates scoring below this are dropped. Default 0.3.
+    /// Candidates whose box-likeness (before the evidence factor) is below this are dropped.
+    /// Default 0.3.
     pub min_score: f64,
     /// A surface-level candidate splits into its colour-level candidates when at least this
     /// many seam cells lie next to two of them with coplanar faces (flush cartons). Default 6.
@@ -337,6 +345,7 @@ impl Default for DetectConfig {
             min_one_face_corners: 0.2,
             max_framed_fraction: 0.5,
             one_face_min_pixels: 1000,
+            evidence_half_pixels: 2000.0,
             two_face_factor: 0.9,
             min_score: 0.3,
             split_min_seam_cells: 6,
@@ -368,7 +377,9 @@ impl Default for DetectConfig {
 pub struct Detection {
     /// Visible-surface mask at the frame's size.
     pub mask: Mask,
-    /// Box-likeness, 0..1 (plane fit × silhouette IoU × depth consistency × face-count factor).
+    /// Confidence, 0..1: box-likeness (plane fit × silhouette IoU × depth consistency ×
+    /// face-count factor) times the evidence factor of the mask's size
+    /// ([`DetectConfig::evidence_half_pixels`]).
     pub score: f64,
     /// Visible faces grouped into this box (1..=3).
     pub n_faces: u8,
@@ -443,22 +454,37 @@ pub fn detect_boxes(
         .collect();
     let cands = boxes::fill(&g, chosen, &mut claimed, cfg);
     let (fw, fh) = (w as usize, h as usize);
-    let one_face_min = cfg.one_face_min_pixels as f64 * (fw * fh) as f64 / (640.0 * 480.0);
-    let out = cands
+    let area = (fw * fh) as f64 / (640.0 * 480.0);
+    let one_face_min = cfg.one_face_min_pixels as f64 * area;
+    let half = cfg.evidence_half_pixels.max(0.0) * area;
+    let mut out: Vec<Detection> = cands
         .into_iter()
         .filter_map(|c| {
             let mask = cells_to_mask(&g, depth, &c.cells, Some(cfg));
-            if c.n_faces == 1 && (mask.count() as f64) < one_face_min {
+            let px = mask.count() as f64;
+            if c.n_faces == 1 && px < one_face_min {
                 return None;
             }
             Some(Detection {
                 mask,
-                score: c.score,
+                score: c.score * evidence(px, half),
                 n_faces: c.n_faces,
             })
         })
         .collect();
+    // Best first (stable: equal scores keep the selection order).
+    out.sort_by(|a, b| b.score.total_cmp(&a.score));
     Ok(out)
+}
+
+/// Score factor for a mask of `px` pixels: `px / (px + half)`, 1 when `half` is 0 (see
+/// [`DetectConfig::evidence_half_pixels`], already scaled to the image).
+fn evidence(px: f64, half: f64) -> f64 {
+    if half > 0.0 {
+        px / (px + half)
+    } else {
+        1.0
+    }
 }
 
 /// The candidates of the three segmentations, before selection, and what selection and fill

@@ -256,13 +256,30 @@ fn candidate_pool_holds_the_box_at_every_level_and_the_detection_comes_from_it()
             .fold(0.0, f64::max);
         assert!(best > 0.7, "level {level}: best mask IoU {best}");
     }
-    // The chosen detection is one of the pool's candidates (same score), filled out.
+    // The chosen detection is one of the pool's candidates (same box-likeness, which the
+    // output scales by the evidence of its mask's size), filled out.
     let dets = detect_boxes(Some(&rgb), &depth, &k(), &cfg).unwrap();
     let d = &dets[0];
+    let px = d.mask.count() as f64;
+    let evidence = px / (px + cfg.evidence_half_pixels);
     let src = pool
         .iter()
-        .find(|(_, c)| c.score == d.score && c.n_faces == d.n_faces)
+        .find(|(_, c)| (c.score * evidence - d.score).abs() < 1e-12 && c.n_faces == d.n_faces)
         .expect("the detection is a pool candidate");
+    let plain = detect_boxes(
+        Some(&rgb),
+        &depth,
+        &k(),
+        &DetectConfig {
+            evidence_half_pixels: 0.0,
+            ..cfg.clone()
+        },
+    )
+    .unwrap();
+    assert_eq!(
+        plain[0].score, src.1.score,
+        "no evidence factor: the box-likeness"
+    );
     // Fill only adds cells; the final mask drops just the pixels well behind their cell (the
     // background past the box's rim).
     let kept = src
