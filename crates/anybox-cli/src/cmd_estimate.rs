@@ -134,14 +134,20 @@ fn run_single(args: &EstimateArgs, config: Config) -> anyhow::Result<RunOutput> 
     };
     let frame = anybox::io::read_frame(args.rgb.as_deref(), depth, camera)?;
     let source = MaskSource::from_paths(&args.masks)?;
-    let masks = match source {
-        MaskSource::Detect => detect_masks(
-            frame.rgb.as_ref(),
-            &frame.depth,
-            &frame.intrinsics,
-            &config.detect,
-        )?,
-        _ => load_masks(&source, frame.depth.width, frame.depth.height)?,
+    let (masks, config) = match source {
+        MaskSource::Detect => (
+            detect_masks(
+                frame.rgb.as_ref(),
+                &frame.depth,
+                &frame.intrinsics,
+                &config.detect,
+            )?,
+            config.for_detected_masks(),
+        ),
+        _ => (
+            load_masks(&source, frame.depth.width, frame.depth.height)?,
+            config,
+        ),
     };
     let out = run_frame(&frame.depth, &frame.intrinsics, &masks, &config);
     if let Some(path) = &args.overlay {

@@ -475,6 +475,7 @@ pub fn run_detection(set: &BenchSet, config: &Config, min_visib: f64) -> Detecti
     let mut gt_mask_ests = Vec::new();
     let mut frame_ms = Vec::new();
     let (mut n_det, mut n_fp, mut errors) = (0, 0, 0);
+    let detected_cfg = config.for_detected_masks();
     for f in &set.frames {
         gts.extend(f.gt_entries());
         let gt_masks: Vec<Mask> = f
@@ -504,7 +505,7 @@ pub fn run_detection(set: &BenchSet, config: &Config, min_visib: f64) -> Detecti
             }
         };
         let masks: Vec<Mask> = dets.iter().map(|d| d.mask.clone()).collect();
-        let results = estimate_frame(&f.depth, &f.intrinsics, &masks, config);
+        let results = estimate_frame(&f.depth, &f.intrinsics, &masks, &detected_cfg);
         frame_ms.push(start.elapsed().as_secs_f64() * 1e3);
         n_det += dets.len();
         for (d, r) in dets.iter().zip(results) {

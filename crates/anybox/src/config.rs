@@ -51,6 +51,16 @@ impl Config {
         let mut c = Self::default();
         c.scale.mode = ScaleMode::EarlyStopping;
         c.context.enabled = false;
+        c.observation.retry_below_score = 0.0;
+        c
+    }
+
+    /// The configuration the estimator runs with on the built-in detector's masks
+    /// (`--masks detect`): this one, with the second try on low scores
+    /// (`observation.retry_below_score`) set to `detect.estimate_retry_below_score`.
+    pub fn for_detected_masks(&self) -> Self {
+        let mut c = self.clone();
+        c.observation.retry_below_score = self.detect.estimate_retry_below_score;
         c
     }
 
@@ -128,6 +138,16 @@ mod tests {
         assert_eq!(c.scale.tau_px, 10.0);
         assert!(!c.context.enabled);
         assert!(c.pose.depth_filter.enabled);
+        assert_eq!(
+            c.observation.retry_below_score, 0.0,
+            "no second try in the paper"
+        );
+        let d = Config::default();
+        assert!(d.observation.retry_below_score > 0.0);
+        assert_eq!(
+            d.for_detected_masks().observation.retry_below_score,
+            d.detect.estimate_retry_below_score
+        );
         assert_eq!(Config::default().scale.mode, ScaleMode::PointFit);
         assert!(Config::default().context.enabled);
         assert_eq!(Config::paper().canonical().scale.mode, ScaleMode::Canonical);

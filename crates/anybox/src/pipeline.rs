@@ -4,7 +4,9 @@
 //! estimator in the loop ([`crate::scale::scale_search`], which makes the first pose estimate
 //! from the template) → hidden dimensions from context ([`crate::context`]) with one last pose
 //! estimate when they changed the size → canonical axes (`anybox_geom::symmetry::canonicalize`)
-//! with the observed-axis flags carried along.
+//! with the observed-axis flags carried along. An estimate scoring below
+//! `observation.retry_below_score` is redone once from the mask cut down to its box faces
+//! ([`crate::observation::box_faces_mask`]); the better-scoring of the two is kept.
 //!
 //! [`estimate_frame`]: [`estimate_box`]'s stages for every mask in parallel (rayon), then the
 //! cross-instance context pass (boxes in one layer share their height,
@@ -20,7 +22,7 @@ use crate::context::{
     doubt_factor, infer_hidden, share_layer_heights, ContextInputs, HiddenSource, LayerMember,
 };
 use crate::error::EstimateError;
-use crate::observation::{observe, trim_support_leak, Observation};
+use crate::observation::{box_faces_mask, observe, trim_support_leak, Observation};
 use crate::pose::estimate_pose;
 use crate::scale::{
     observed_extents_checked, observed_faces, scale_search, PoseSample, ScaleInputs, ScaleMode,
@@ -81,7 +83,30 @@ fn sample_of(
     })
 }
 
+/// [`stage_from_mask`], with a second try from the mask cut down to its box faces
+/// ([`box_faces_mask`]) when the first scores below `observation.retry_below_score`; the
+/// better-scoring of the two is kept.
 fn stage_one(
+    depth: &DepthMap,
+    k: &Intrinsics,
+    mask: &Mask,
+    cfg: &Config,
+) -> Result<Stage, EstimateError> {
+    let first = stage_from_mask(depth, k, mask, cfg);
+    let below = |st: &Stage| st.score * st.doubt < cfg.observation.retry_below_score;
+    if !first.as_ref().is_ok_and(below) {
+        return first;
+    }
+    let Some(cut) = box_faces_mask(depth, k, mask, &cfg.observation) else {
+        return first;
+    };
+    match (first, stage_from_mask(depth, k, &cut, cfg)) {
+        (Ok(a), Ok(b)) if b.score * b.doubt > a.score * a.doubt => Ok(b),
+        (a, _) => a,
+    }
+}
+
+fn stage_from_mask(
     depth: &DepthMap,
     k: &Intrinsics,
     mask: &Mask,
@@ -487,6 +512,79 @@ mod tests {
         )
         .unwrap();
         assert!(iou(&e.pose, &gt) > 0.9);
+    }
+
+    /// The oblique box on its table, an upright post standing beside it (yawed 45° to it, so
+    /// that no face of the post is parallel to the box's) and the box's mask with a band of
+    /// the post's pixels up to 10 px from it: (intrinsics, depth, gt, box mask, leaky mask).
+    fn box_with_post_leak() -> (Intrinsics, DepthMap, OrientedBox, Mask, Mask) {
+        let k = cam();
+        let size = Vector3::new(240.0, 160.0, 110.0);
+        let (gt, table) = table_scene(size, 0.5, 40.0, 900.0);
+        let rot = gt.rotation * Rotation3::from_axis_angle(&Vector3::z_axis(), 0.8);
+        let centre = gt.center_mm - gt.axis(0) * 190.0 + gt.axis(2) * 95.0;
+        let post = OrientedBox::new(rot, centre, Vector3::new(60.0, 60.0, 300.0)).unwrap();
+        let (depth, masks) = render(&[gt, post], &[table], &k, 640, 480);
+        let (w, h) = (640i64, 480i64);
+        let mut leaky = masks[0].clone();
+        for v in 0..h {
+            for u in 0..w {
+                if !masks[1].data[(v * w + u) as usize] {
+                    continue;
+                }
+                let near = (-10..=10i64).any(|dv| {
+                    (-10..=10i64).any(|du| {
+                        let (x, y) = (u + du, v + dv);
+                        x >= 0 && y >= 0 && x < w && y < h && masks[0].data[(y * w + x) as usize]
+                    })
+                });
+                if near {
+                    leaky.set(u as u32, v as u32, true);
+                }
+            }
+        }
+        (k, depth, gt, masks[0].clone(), leaky)
+    }
+
+    #[test]
+    fn box_faces_mask_drops_a_leak_onto_a_skewed_neighbour_and_keeps_the_box() {
+        let (k, depth, _, clean, leaky) = box_with_post_leak();
+        let band = leaky.count() - clean.count();
+        assert!(band > 300, "the scene must leak: {band} px");
+        let cfg = Config::default().observation;
+        let cut = box_faces_mask(&depth, &k, &leaky, &cfg).expect("the band is cut");
+        let (mut band_left, mut box_lost) = (0usize, 0usize);
+        for ((&l, &c), &o) in leaky.data.iter().zip(&clean.data).zip(&cut.data) {
+            band_left += (l && !c && o) as usize;
+            box_lost += (c && !o) as usize;
+        }
+        // Post pixels near where a box face's plane runs on through the post stay.
+        assert!(band_left * 5 <= band, "{band_left} of {band} leak px left");
+        assert!(box_lost * 100 <= clean.count(), "{box_lost} box px lost");
+        // The box alone: its three faces are all there is (exact depth), nothing goes.
+        assert_eq!(box_faces_mask(&depth, &k, &clean, &cfg), None);
+    }
+
+    #[test]
+    fn second_try_keeps_the_better_estimate_of_a_leaky_mask() {
+        let (k, depth, gt, _, leaky) = box_with_post_leak();
+        let mut off = Config::default();
+        off.observation.retry_below_score = 0.0;
+        let mut always = Config::default();
+        always.observation.retry_below_score = 1.01;
+        let a = estimate_box(&depth, &k, &leaky, &off).unwrap();
+        let b = estimate_box(&depth, &k, &leaky, &always).unwrap();
+        let cut = box_faces_mask(&depth, &k, &leaky, &always.observation).unwrap();
+        let c = estimate_box(&depth, &k, &cut, &off).unwrap();
+        // The leak pulls the first estimate off; the cut mask's scores better and is kept.
+        assert!(c.score > a.score && iou(&c.pose, &gt) > iou(&a.pose, &gt) + 0.1);
+        assert_eq!(b, c);
+        // Above the default threshold the first estimate stands, untouched.
+        assert!(a.score > Config::default().observation.retry_below_score);
+        assert_eq!(
+            estimate_box(&depth, &k, &leaky, &Config::default()).unwrap(),
+            a
+        );
     }
 
     #[test]

@@ -240,7 +240,12 @@ fn run_view_detect(view: &BopView, opts: &DatasetRunOptions) -> RunOutput {
             }
         }
     };
-    let mut out = run_frame(&frame.depth, &frame.intrinsics, &masks, &opts.config);
+    let mut out = run_frame(
+        &frame.depth,
+        &frame.intrinsics,
+        &masks,
+        &opts.config.for_detected_masks(),
+    );
     // Whole-image time: detection plus estimation.
     let time_s = start.elapsed().as_secs_f64();
     for r in &mut out.estimates {
