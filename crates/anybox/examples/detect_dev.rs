@@ -413,6 +413,47 @@ fn main() {
                 let masks: Vec<Mask> = dets.iter().map(|d| d.mask.clone()).collect();
                 let est_d =
                     anybox::pipeline::estimate_frame(&v.depth, &v.intrinsics, &masks, &cfg_e);
+                let erode_r: usize = std::env::var("ERODE")
+                    .ok()
+                    .and_then(|x| x.parse().ok())
+                    .unwrap_or(0);
+                let eroded: Vec<Mask> = masks
+                    .iter()
+                    .map(|m| {
+                        let (w, h) = (m.width as usize, m.height as usize);
+                        let mut out = m.clone();
+                        if erode_r == 0 {
+                            return out;
+                        }
+                        let r = erode_r as isize;
+                        for y in 0..h {
+                            for x in 0..w {
+                                if !m.data[y * w + x] {
+                                    continue;
+                                }
+                                let mut keep = true;
+                                'o: for dy in -r..=r {
+                                    for dx in -r..=r {
+                                        let (xx, yy) = (x as isize + dx, y as isize + dy);
+                                        if xx < 0
+                                            || yy < 0
+                                            || xx >= w as isize
+                                            || yy >= h as isize
+                                            || !m.data[yy as usize * w + xx as usize]
+                                        {
+                                            keep = false;
+                                            break 'o;
+                                        }
+                                    }
+                                }
+                                out.data[y * w + x] = keep;
+                            }
+                        }
+                        out
+                    })
+                    .collect();
+                let est_e =
+                    anybox::pipeline::estimate_frame(&v.depth, &v.intrinsics, &eroded, &cfg_e);
                 let gtm: Vec<Mask> = v.boxes.iter().map(|b| b.mask_visib.clone()).collect();
                 let est_g = anybox::pipeline::estimate_frame(&v.depth, &v.intrinsics, &gtm, &cfg_e);
                 if std::env::var("DET3D").is_ok() {
@@ -449,6 +490,178 @@ fn main() {
                             obs,
                             best.0,
                             best.1
+                        );
+                    }
+                }
+                if std::env::var("PAIRS").is_ok() {
+                    // Every pair of touching detections: which GT each lies in (precision ≥ 0.8),
+                    // and the estimate from the union of their masks.
+                    let w = v.depth.width as usize;
+                    let owner = |m: &Mask| -> (i64, f64) {
+                        let mut best = (-1i64, 0.0);
+                        let a = m.count().max(1) as f64;
+                        for (k, b) in v.boxes.iter().enumerate() {
+                            let i = m
+                                .data
+                                .iter()
+                                .zip(&b.mask_visib.data)
+                                .filter(|(x, y)| **x && **y)
+                                .count() as f64;
+                            if i / a > best.1 {
+                                best = (k as i64, i / a);
+                            }
+                        }
+                        if best.1 >= 0.8 {
+                            best
+                        } else {
+                            (-1, best.1)
+                        }
+                    };
+                    let owners: Vec<(i64, f64)> = dets.iter().map(|d| owner(&d.mask)).collect();
+                    for a in 0..dets.len() {
+                        for c in a + 1..dets.len() {
+                            let (ma, mc) = (&dets[a].mask.data, &dets[c].mask.data);
+                            let mut touch = 0;
+                            for i in 0..ma.len() {
+                                if !ma[i] {
+                                    continue;
+                                }
+                                let x = i % w;
+                                let y = i / w;
+                                for (dx, dy) in [
+                                    (-2i64, 0i64),
+                                    (2, 0),
+                                    (0, -2),
+                                    (0, 2),
+                                    (-1, 0),
+                                    (1, 0),
+                                    (0, -1),
+                                    (0, 1),
+                                ] {
+                                    let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                                    if nx >= 0
+                                        && ny >= 0
+                                        && (nx as usize) < w
+                                        && (ny as usize) < ma.len() / w
+                                        && mc[ny as usize * w + nx as usize]
+                                    {
+                                        touch += 1;
+                                        break;
+                                    }
+                                }
+                            }
+                            if touch < 5 {
+                                continue;
+                            }
+                            let mut uni = dets[a].mask.clone();
+                            for (u, &x) in uni.data.iter_mut().zip(mc) {
+                                *u |= x;
+                            }
+                            let eu = anybox::pipeline::estimate_box(
+                                &v.depth,
+                                &v.intrinsics,
+                                &uni,
+                                &cfg_e,
+                            );
+                            let best3 = |e: &Result<anybox::pipeline::BoxEstimate, _>| {
+                                e.as_ref().map_or(-1.0, |e| {
+                                    v.boxes
+                                        .iter()
+                                        .filter(|b| b.visib_fract >= 0.5)
+                                        .map(|b| iou(&e.pose, &b.pose, IouMethod::Exact))
+                                        .fold(0.0, f64::max)
+                                })
+                            };
+                            let es = |e: &Result<anybox::pipeline::BoxEstimate, _>| {
+                                e.as_ref().map_or(-1.0, |e| e.score)
+                            };
+                            println!(
+                                "  pair {name} s{s} same {} own {} {} touch {touch} fa {} fc {} pa {} pc {} da {:.3} dc {:.3} ea {:.3} ec {:.3} eu {:.3} ia {:.2} ic {:.2} iu {:.2}",
+                                (owners[a].0 >= 0 && owners[a].0 == owners[c].0) as u8,
+                                owners[a].0, owners[c].0,
+                                dets[a].n_faces, dets[c].n_faces,
+                                dets[a].mask.count(), dets[c].mask.count(),
+                                dets[a].score, dets[c].score,
+                                es(&est_d[a]), es(&est_d[c]), es(&eu),
+                                best3(&est_d[a]), best3(&est_d[c]), best3(&eu)
+                            );
+                        }
+                    }
+                }
+                if std::env::var("SPLIT").is_ok() {
+                    // Per counted GT: detections lying mostly inside its mask (precision ≥ 0.8);
+                    // with two or more, the 3D IoU of each one's estimate and of the union's.
+                    for (k, b) in v.boxes.iter().enumerate() {
+                        if b.visib_fract < 0.5 {
+                            continue;
+                        }
+                        let mut parts = Vec::new();
+                        for (j, d) in dets.iter().enumerate() {
+                            let (mut a, mut i) = (0usize, 0usize);
+                            for (&x, &y) in d.mask.data.iter().zip(&b.mask_visib.data) {
+                                a += x as usize;
+                                i += (x && y) as usize;
+                            }
+                            if a > 0 && i as f64 / a as f64 >= 0.8 {
+                                parts.push((j, i as f64 / b.mask_visib.count().max(1) as f64));
+                            }
+                        }
+                        if parts.len() < 2 {
+                            continue;
+                        }
+                        let mut uni = Mask::empty(v.depth.width, v.depth.height);
+                        for (j, _) in &parts {
+                            for (u, &x) in uni.data.iter_mut().zip(&dets[*j].mask.data) {
+                                *u |= x;
+                            }
+                        }
+                        let eu =
+                            anybox::pipeline::estimate_box(&v.depth, &v.intrinsics, &uni, &cfg_e);
+                        let i3 = |e: &Result<anybox::pipeline::BoxEstimate, _>| {
+                            e.as_ref()
+                                .map_or(-1.0, |e| iou(&e.pose, &b.pose, IouMethod::Exact))
+                        };
+                        let each: Vec<String> = parts
+                            .iter()
+                            .map(|(j, r)| {
+                                format!(
+                                    "[d{j} f{} rec {r:.2} sc {:.2} iou {:.2} est {:.2}]",
+                                    dets[*j].n_faces,
+                                    dets[*j].score,
+                                    i3(&est_d[*j]),
+                                    est_d[*j].as_ref().map_or(-1.0, |e| e.score)
+                                )
+                            })
+                            .collect();
+                        let pair = match (&est_d[parts[0].0], &est_d[parts[1].0]) {
+                            (Ok(a), Ok(c)) => iou(&a.pose, &c.pose, IouMethod::Exact),
+                            _ => -1.0,
+                        };
+                        if let Ok(dir) = std::env::var("SPLIT_DIR") {
+                            let mut img = v.rgb.clone();
+                            let cols = [[255u8, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 0]];
+                            for (c, (j, _)) in parts.iter().enumerate() {
+                                for (i, &x) in dets[*j].mask.data.iter().enumerate() {
+                                    if x {
+                                        let px = img.get_pixel_mut(
+                                            i as u32 % v.rgb.width(),
+                                            i as u32 / v.rgb.width(),
+                                        );
+                                        for ch in 0..3 {
+                                            px.0[ch] =
+                                                (px.0[ch] / 2).saturating_add(cols[c % 4][ch] / 2);
+                                        }
+                                    }
+                                }
+                            }
+                            let _ = img.save(format!("{dir}/split_{name}_{s}_{k}.png"));
+                        }
+                        println!(
+                            "  split {name} s{s} gt {k} n {} pair {pair:.2} union iou {:.2} est {:.2} | {}",
+                            parts.len(),
+                            i3(&eu),
+                            eu.as_ref().map_or(-1.0, |e| e.score),
+                            each.join(" ")
                         );
                     }
                 }
@@ -578,6 +791,14 @@ fn main() {
                         _ => -1.0,
                     };
                     print!("  pen {pen:.2}");
+                    if erode_r > 0 && j != usize::MAX {
+                        print!(
+                            " ero {:.2} es {:.3} ee {:.3}",
+                            i3(&est_e[j]),
+                            est_d[j].as_ref().map_or(-1.0, |e| e.score),
+                            est_e[j].as_ref().map_or(-1.0, |e| e.score)
+                        );
+                    }
                     println!(
                         "  3d {name} s{s} gt {k} visib {:.2} size {:.0}x{:.0}x{:.0} mask-iou {miou:.2} iou3d det {d3:.2} gt {:.2} alone det {d1:.2} gt {g1:.2} prec {prec:.2} rec {rec:.2} faces {faces}",
                         b.visib_fract, b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z, i3(&est_g[k])
