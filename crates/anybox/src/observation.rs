@@ -154,6 +154,43 @@ fn dilate_line(len: usize, r: usize, set: impl Fn(usize) -> bool) -> Vec<bool> {
     out
 }
 
+/// The best of `iters` planes through three random points of `pts` (most points within
+/// `tol(p)` mm of it), skipping normals that `accept` rejects: (inlier count, unit normal of
+/// either sign, a point on the plane). Deterministic for a given `rng` state.
+fn ransac_plane(
+    pts: &[Point3<f64>],
+    iters: usize,
+    rng: &mut ChaCha8Rng,
+    tol: impl Fn(&Point3<f64>) -> f64,
+    accept: impl Fn(&Vector3<f64>) -> bool,
+) -> Option<(usize, Vector3<f64>, Point3<f64>)> {
+    if pts.is_empty() {
+        return None;
+    }
+    let mut best: Option<(usize, Vector3<f64>, Point3<f64>)> = None;
+    for _ in 0..iters {
+        let (a, b, c) = (
+            pts[rng.random_range(0..pts.len())],
+            pts[rng.random_range(0..pts.len())],
+            pts[rng.random_range(0..pts.len())],
+        );
+        let Some(n) = (b - a).cross(&(c - a)).try_normalize(1e-9) else {
+            continue;
+        };
+        if !accept(&n) {
+            continue;
+        }
+        let count = pts
+            .iter()
+            .filter(|p| (*p - a).dot(&n).abs() <= tol(p))
+            .count();
+        if best.as_ref().is_none_or(|x| count > x.0) {
+            best = Some((count, n, a));
+        }
+    }
+    best
+}
+
 /// The mask without its leak onto the surface it stands on or lies against: the dominant plane
 /// of a ring of `leak_ring_px` around the mask (RANSAC, deterministic; at least
 /// `leak_min_ring_fraction` of the ring) is the support; mask pixels on that plane and facing
@@ -208,26 +245,7 @@ pub fn trim_support_leak(
     let tol = |p: &Point3<f64>| cfg.leak_tol_mm.max(cfg.leak_tol_rel * p.z);
     // RANSAC over the ring with a fixed seed: deterministic.
     let mut rng = ChaCha8Rng::seed_from_u64(0x1EA4);
-    let mut next = |n: usize| -> usize { rng.random_range(0..n) };
-    let mut best: Option<(usize, Vector3<f64>, Point3<f64>)> = None;
-    for _ in 0..100 {
-        let (a, b, c) = (
-            ring[next(ring.len())],
-            ring[next(ring.len())],
-            ring[next(ring.len())],
-        );
-        let Some(n) = (b - a).cross(&(c - a)).try_normalize(1e-9) else {
-            continue;
-        };
-        let count = ring
-            .iter()
-            .filter(|p| (*p - a).dot(&n).abs() <= tol(p))
-            .count();
-        if best.as_ref().is_none_or(|x| count > x.0) {
-            best = Some((count, n, a));
-        }
-    }
-    let (count, mut n, a) = best?;
+    let (count, mut n, a) = ransac_plane(&ring, 100, &mut rng, tol, |_| true)?;
     if (count as f64) < cfg.leak_min_ring_fraction * ring.len() as f64 {
         return None;
     }
@@ -329,38 +347,24 @@ pub fn box_faces_mask(
     let mut planes: Vec<(Vector3<f64>, Point3<f64>)> = Vec::new();
     let mut free: Vec<bool> = vec![true; pts.len()];
     for _ in 0..3 {
-        let cand: Vec<usize> = sample.iter().copied().filter(|&i| free[i]).collect();
+        let cand: Vec<Point3<f64>> = sample
+            .iter()
+            .filter(|&&i| free[i])
+            .map(|&i| pts[i])
+            .collect();
         if cand.len() < min_in {
             break;
         }
-        let mut best: Option<(usize, Vector3<f64>, Point3<f64>)> = None;
-        for _ in 0..150 {
-            let (a, b, c) = (
-                pts[cand[rng.random_range(0..cand.len())]],
-                pts[cand[rng.random_range(0..cand.len())]],
-                pts[cand[rng.random_range(0..cand.len())]],
-            );
-            let Some(mut n) = (b - a).cross(&(c - a)).try_normalize(1e-9) else {
-                continue;
-            };
-            // Perpendicular to the planes already found (within about 15°).
-            if planes.iter().any(|(m, _)| m.dot(&n).abs() > 0.26) {
-                continue;
-            }
-            if n.dot(&a.coords) > 0.0 {
-                n = -n;
-            }
-            let count = cand
-                .iter()
-                .filter(|&&i| (pts[i] - a).dot(&n).abs() <= tol(&pts[i]))
-                .count();
-            if best.as_ref().is_none_or(|x| count > x.0) {
-                best = Some((count, n, a));
-            }
-        }
-        let Some((count, n, a)) = best else { break };
+        // Perpendicular to the planes already found (within about 15°).
+        let perpendicular = |n: &Vector3<f64>| planes.iter().all(|(m, _)| m.dot(n).abs() <= 0.26);
+        let Some((count, mut n, a)) = ransac_plane(&cand, 150, &mut rng, tol, perpendicular) else {
+            break;
+        };
         if count < min_in {
             break;
+        }
+        if n.dot(&a.coords) > 0.0 {
+            n = -n;
         }
         for (i, f) in free.iter_mut().enumerate() {
             if *f && (pts[i] - a).dot(&n).abs() <= tol(&pts[i]) {
