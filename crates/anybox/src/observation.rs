@@ -107,6 +107,12 @@ impl ObservationConfig {
     fn flying_tol_mm(&self, z_mm: f32) -> f32 {
         self.flying_abs_mm.max(self.flying_rel * z_mm as f64) as f32
     }
+
+    /// The plane tolerance of [`trim_support_leak`] and [`box_faces_mask`] at depth `z_mm`:
+    /// `max(leak_tol_mm, leak_tol_rel · z)`, mm.
+    fn plane_tol_mm(&self, z_mm: f64) -> f64 {
+        self.leak_tol_mm.max(self.leak_tol_rel * z_mm)
+    }
 }
 
 impl Default for ObservationConfig {
@@ -242,7 +248,7 @@ pub fn trim_support_leak(
     }
     let stride = ring_pts.len().div_ceil(1500).max(1);
     let ring: Vec<Point3<f64>> = ring_pts.into_iter().step_by(stride).collect();
-    let tol = |p: &Point3<f64>| cfg.leak_tol_mm.max(cfg.leak_tol_rel * p.z);
+    let tol = |p: &Point3<f64>| cfg.plane_tol_mm(p.z);
     // RANSAC over the ring with a fixed seed: deterministic.
     let mut rng = ChaCha8Rng::seed_from_u64(0x1EA4);
     let (count, mut n, a) = ransac_plane(&ring, 100, &mut rng, tol, |_| true)?;
@@ -338,7 +344,7 @@ pub fn box_faces_mask(
     if pts.len() < 30 {
         return None;
     }
-    let tol = |p: &Point3<f64>| cfg.leak_tol_mm.max(cfg.leak_tol_rel * p.z);
+    let tol = |p: &Point3<f64>| cfg.plane_tol_mm(p.z);
     let stride = pts.len().div_ceil(1500).max(1);
     let sample: Vec<usize> = (0..pts.len()).step_by(stride).collect();
     let min_in = (cfg.retry_min_face_fraction * sample.len() as f64).max(10.0) as usize;
@@ -381,13 +387,13 @@ pub fn box_faces_mask(
     let mut keep = vec![true; planes.len()];
     for k in 1..planes.len() {
         for j in 0..k {
-            let mut front: Vec<f64> = sample
+            let front: Vec<f64> = sample
                 .iter()
                 .map(|&i| &pts[i])
                 .filter(|p| on(j, p) && !on(k, p))
                 .map(|p| (p - planes[k].1).dot(&planes[k].0) - tol(p))
                 .collect();
-            if !front.is_empty() && median(std::mem::take(&mut front)) > 0.0 {
+            if !front.is_empty() && median(front) > 0.0 {
                 keep[k] = false;
             }
         }
