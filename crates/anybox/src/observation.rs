@@ -93,7 +93,7 @@ pub struct ObservationConfig {
     /// down to its box faces ([`box_faces_mask`]), and the better-scoring estimate is kept; 0
     /// disables. Default 0.35 (`anybox bench --no-detect`, ground-truth masks, AP@0.5 of the
     /// default variant on seeds 2026 / 7 / 11: 0.863 / 0.834 / 0.873 → 0.881 / 0.851 / 0.879,
-    /// median time per box +0.2 ms, p90 +1.5 to +3 ms; 0.5 gained no more and cost twice the
+    /// median time per box +0.15 ms, p90 +1.5 to +3 ms; 0.5 gained no more and cost twice the
     /// time). A strip of a shelf board, an upright or the table caught along a mask's rim can
     /// otherwise blow the size up; such estimates score low.
     pub retry_below_score: f64,
