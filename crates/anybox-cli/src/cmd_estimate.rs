@@ -10,8 +10,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use anybox::config::Config;
 use anybox::io::bop::BopDataset;
 use anybox::overlay::{draw_boxes, OverlayBox};
-use anybox::runner::{run_dataset, run_frame, DatasetMasks, DatasetRunOptions, RunOutput};
-use anybox::segmentation::{detect_masks, load_masks, MaskSource};
+use anybox::runner::{
+    run_dataset, run_detected_frame, run_frame, DatasetMasks, DatasetRunOptions, RunOutput,
+};
+use anybox::segmentation::{load_masks, MaskSource};
 
 /// Estimate 9-DoF boxes. All lengths in files are millimetres: depth PNG value × depth_scale =
 /// depth in mm; output `t` (box centre) and `size` are mm, `R` is row-major box→camera.
@@ -134,22 +136,15 @@ fn run_single(args: &EstimateArgs, config: Config) -> anyhow::Result<RunOutput> 
     };
     let frame = anybox::io::read_frame(args.rgb.as_deref(), depth, camera)?;
     let source = MaskSource::from_paths(&args.masks)?;
-    let (masks, config) = match source {
-        MaskSource::Detect => (
-            detect_masks(
-                frame.rgb.as_ref(),
-                &frame.depth,
-                &frame.intrinsics,
-                &config.detect,
-            )?,
-            config.for_detected_masks(),
-        ),
-        _ => (
-            load_masks(&source, frame.depth.width, frame.depth.height)?,
-            config,
-        ),
+    let out = match source {
+        MaskSource::Detect => {
+            run_detected_frame(frame.rgb.as_ref(), &frame.depth, &frame.intrinsics, &config)?
+        }
+        _ => {
+            let masks = load_masks(&source, frame.depth.width, frame.depth.height)?;
+            run_frame(&frame.depth, &frame.intrinsics, &masks, &config)
+        }
     };
-    let out = run_frame(&frame.depth, &frame.intrinsics, &masks, &config);
     if let Some(path) = &args.overlay {
         let mut img = match &frame.rgb {
             Some(rgb) => rgb.clone(),
@@ -158,6 +153,8 @@ fn run_single(args: &EstimateArgs, config: Config) -> anyhow::Result<RunOutput> 
         let boxes: Vec<OverlayBox> = out
             .estimates
             .iter()
+            // One reading per box in the picture: alternatives overlap their parts.
+            .filter(|e| e.extra.get("alternative").is_none())
             .filter_map(|e| e.pose().ok())
             .map(|pose| OverlayBox {
                 pose,
