@@ -5,7 +5,13 @@
 //! Env: `SEED=<u64>` (default 7), `ONLY=<layout>`, `NOISE=none`, `DETECT_CFG=<json>`, `LABELS=1`,
 //! `EST=1`, `VERBOSE=1`, `VIEW=<index>` (one view only), `KIND=1` (per detection: exact, part
 //! of one box, bleeding into others, mixed or junk, by precision and recall against the GT
-//! mask it overlaps most).
+//! mask it overlaps most). With `EST3D=1`, each GT line also gives `nz` (share of its mask
+//! without depth) and `cc` (pieces of its mask); `DET3D=1` adds, per detection, the 3D
+//! interpenetration with the other estimates (`pin`, `pout`, `pinhi`), the depth penalty and
+//! the estimated and best GT's sorted sizes; `UNION=<r>` lists every pair of estimates
+//! whose axes agree and whose union is at most r times their volume (`pipeline::tiled_union`,
+//! e.g. r = 1.2) with the fill, the parts' and the union's best
+//! 3D IoU. `RAW=1` with a dump dir also writes the image with invalid depth in red.
 //! A GT box counts when its visible fraction is ≥ 0.5; a detection is a true positive when its
 //! mask IoU with an unmatched such GT is > 0.5 (greedy in score order); detections matching a
 //! GT with lower visibility are ignored (neither TP nor FP).
@@ -467,30 +473,97 @@ fn main() {
                                 let i = est_d[j]
                                     .as_ref()
                                     .map_or(0.0, |e| iou(&e.pose, &b.pose, IouMethod::Exact));
-                                (i, b.visib_fract)
+                                (i, b.visib_fract, b.pose.size_mm)
                             })
-                            .fold((0.0, 0.0), |a, x| if x.0 > a.0 { x } else { a });
-                        let t_est = Instant::now();
-                        let _ = anybox::pipeline::estimate_box(
-                            &v.depth,
-                            &v.intrinsics,
-                            &d.mask,
-                            &cfg_e,
-                        );
-                        let est_ms = t_est.elapsed().as_secs_f64() * 1e3;
+                            .fold((0.0, 0.0, nalgebra::Vector3::zeros()), |a, x| {
+                                if x.0 > a.0 {
+                                    x
+                                } else {
+                                    a
+                                }
+                            });
+                        let mut gsz = [best.2.x, best.2.y, best.2.z];
+                        gsz.sort_by(|a, b| a.total_cmp(b));
                         let (es, obs) = est_d[j].as_ref().map_or((-1.0, 0), |e| {
                             (e.score, e.observed_axes.iter().filter(|o| **o).count())
                         });
+                        // Interpenetration with the other detections' estimates: largest
+                        // share of this one's volume inside another, and of another's inside
+                        // this one (only others with a higher detection score: `hi`).
+                        let (mut pin, mut pout, mut pin_hi) = (0.0f64, 0.0f64, 0.0f64);
+                        let (mut dp, mut sz) = (-1.0, [0.0; 3]);
+                        if let Some(Ok(e)) = est_d.get(j) {
+                            dp = e.depth_penalty;
+                            sz = [e.pose.size_mm.x, e.pose.size_mm.y, e.pose.size_mm.z];
+                            for (o, x) in est_d.iter().enumerate() {
+                                let Some(x) = x.as_ref().ok().filter(|_| o != j) else {
+                                    continue;
+                                };
+                                let vi =
+                                    anybox::geom::iou::intersection_volume_mm3(&e.pose, &x.pose);
+                                pin = pin.max(vi / e.pose.volume_mm3());
+                                pout = pout.max(vi / x.pose.volume_mm3());
+                                if dets[o].score > d.score {
+                                    pin_hi = pin_hi.max(vi / e.pose.volume_mm3());
+                                }
+                            }
+                        }
+                        sz.sort_by(|a, b| a.total_cmp(b));
                         println!(
-                            "  d3 {name} s{s} score {:.3} faces {} px {} est {:.3} obs {} iou3d {:.2} visib {:.2} ms {est_ms:.1}",
+                            "  d3 {name} s{s} score {:.3} faces {} px {} est {:.3} obs {} iou3d {:.2} visib {:.2} pin {pin:.2} pout {pout:.2} pinhi {pin_hi:.2} dp {dp:.3} sz {:.0} {:.0} {:.0} gsz {:.0} {:.0} {:.0}",
                             d.score,
                             d.n_faces,
                             d.mask.count(),
                             es,
                             obs,
                             best.0,
-                            best.1
+                            best.1,
+                            sz[0], sz[1], sz[2],
+                            gsz[0], gsz[1], gsz[2]
                         );
+                    }
+                }
+                if std::env::var("UNION").is_ok() {
+                    // Pairs of estimates that tile one cuboid (same axes, union's bounding
+                    // box about their summed volume): the union's best 3D IoU with a GT, and
+                    // the parts' best.
+                    let tile: f64 = std::env::var("UNION")
+                        .ok()
+                        .and_then(|x| x.parse().ok())
+                        .unwrap_or(1.15);
+                    let best_iou = |bx: &anybox::geom::OrientedBox| {
+                        v.boxes
+                            .iter()
+                            .enumerate()
+                            .filter(|(_, b)| b.visib_fract >= 0.5)
+                            .map(|(k, b)| (iou(bx, &b.pose, IouMethod::Exact), k as i64))
+                            .fold((0.0, -1), |a, x| if x.0 > a.0 { x } else { a })
+                    };
+                    for a in 0..est_d.len() {
+                        for c in a + 1..est_d.len() {
+                            let (Ok(ea), Ok(ec)) = (&est_d[a], &est_d[c]) else {
+                                continue;
+                            };
+                            let Some(u) =
+                                anybox::pipeline::tiled_union(&ea.pose, &ec.pose, 10.0, 0.0)
+                            else {
+                                continue;
+                            };
+                            let (va, vc, vu) =
+                                (ea.pose.volume_mm3(), ec.pose.volume_mm3(), u.volume_mm3());
+                            if vu > tile * (va + vc) {
+                                continue;
+                            }
+                            let (ia, ka) = best_iou(&ea.pose);
+                            let (ic, kc) = best_iou(&ec.pose);
+                            let (iu, ku) = best_iou(&u);
+                            println!(
+                                "  union {name} s{s} {a} {c} fill {:.2} parts {ia:.2} (gt {ka}) {ic:.2} (gt {kc}) union {iu:.2} (gt {ku}) scores {:.3} {:.3}",
+                                (va + vc) / vu,
+                                dets[a].score * ea.score,
+                                dets[c].score * ec.score
+                            );
+                        }
                     }
                 }
                 if std::env::var("PAIRS").is_ok() {
@@ -799,6 +872,55 @@ fn main() {
                             est_e[j].as_ref().map_or(-1.0, |e| e.score)
                         );
                     }
+                    // Share of the GT mask without valid depth (grazing faces, holes).
+                    let nz = {
+                        let (mut n, mut z0) = (0usize, 0usize);
+                        for (i, &y) in gtm[k].data.iter().enumerate() {
+                            if y {
+                                n += 1;
+                                z0 += (v.depth.depth_mm[i] <= 0.0) as usize;
+                            }
+                        }
+                        z0 as f64 / n.max(1) as f64
+                    };
+                    print!(" nz {nz:.2}");
+                    // Pieces of the GT mask (4-connected, each ≥ 5 % of it): a box occluded
+                    // across its middle shows as two.
+                    let pieces = {
+                        let (w, h) = (gtm[k].width as usize, gtm[k].height as usize);
+                        let mut seen = vec![false; w * h];
+                        let tot = gtm[k].count().max(1);
+                        let mut n = 0;
+                        for st in 0..w * h {
+                            if !gtm[k].data[st] || seen[st] {
+                                continue;
+                            }
+                            let mut stack = vec![st];
+                            seen[st] = true;
+                            let mut c = 0usize;
+                            while let Some(i) = stack.pop() {
+                                c += 1;
+                                let (u, vv) = (i % w, i / w);
+                                let nb = [
+                                    (u > 0).then(|| i - 1),
+                                    (u + 1 < w).then(|| i + 1),
+                                    (vv > 0).then(|| i - w),
+                                    (vv + 1 < h).then(|| i + w),
+                                ];
+                                for j in nb.into_iter().flatten() {
+                                    if gtm[k].data[j] && !seen[j] {
+                                        seen[j] = true;
+                                        stack.push(j);
+                                    }
+                                }
+                            }
+                            if c * 20 >= tot {
+                                n += 1;
+                            }
+                        }
+                        n
+                    };
+                    print!(" cc {pieces}");
                     println!(
                         "  3d {name} s{s} gt {k} visib {:.2} size {:.0}x{:.0}x{:.0} mask-iou {miou:.2} iou3d det {d3:.2} gt {:.2} alone det {d1:.2} gt {g1:.2} prec {prec:.2} rec {rec:.2} faces {faces}",
                         b.visib_fract, b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z, i3(&est_g[k])
@@ -902,6 +1024,15 @@ fn main() {
                 dump(&d.join(format!("{name}_{s}.png")), &v.rgb, &dets, &gts);
                 if std::env::var("RAW").is_ok() {
                     let _ = v.rgb.save(d.join(format!("{name}_{s}_raw.png")));
+                    // Valid depth in the image: invalid pixels in red.
+                    let mut dz = v.rgb.clone();
+                    for (i, z) in v.depth.depth_mm.iter().enumerate() {
+                        if *z <= 0.0 {
+                            let w = v.rgb.width();
+                            dz.put_pixel(i as u32 % w, i as u32 / w, image::Rgb([255, 0, 0]));
+                        }
+                    }
+                    let _ = dz.save(d.join(format!("{name}_{s}_valid.png")));
                 }
             }
         }
