@@ -518,11 +518,15 @@ pub fn run_detection(set: &BenchSet, config: &Config, min_visib: f64) -> Detecti
         frame_ms.push(start.elapsed().as_secs_f64() * 1e3);
         n_det += dets.len();
         n_alt += unions.len();
-        for u in unions {
+        // Detections, then their alternative readings: clear false positives counted alike.
+        let entries = scored
+            .into_iter()
+            .chain(unions.into_iter().map(|u| (u.pose, u.score)));
+        for (pose, score) in entries {
             let best = f
                 .instances
                 .iter()
-                .map(|i| anybox_geom::iou::iou(&u.pose, &i.gt, anybox_geom::iou::IouMethod::Exact))
+                .map(|i| anybox_geom::iou::iou(&pose, &i.gt, anybox_geom::iou::IouMethod::Exact))
                 .fold(0.0, f64::max);
             if best <= 0.1 {
                 n_fp += 1;
@@ -530,26 +534,8 @@ pub fn run_detection(set: &BenchSet, config: &Config, min_visib: f64) -> Detecti
             ests.push(EstEntry {
                 scene_id: f.scene_id,
                 im_id: f.im_id,
-                score: u.score,
-                pose: u.pose,
-                gt_index: None,
-            });
-        }
-        for (d, r) in dets.iter().zip(results) {
-            let Ok(e) = r else { continue };
-            let best = f
-                .instances
-                .iter()
-                .map(|i| anybox_geom::iou::iou(&e.pose, &i.gt, anybox_geom::iou::IouMethod::Exact))
-                .fold(0.0, f64::max);
-            if best <= 0.1 {
-                n_fp += 1;
-            }
-            ests.push(EstEntry {
-                scene_id: f.scene_id,
-                im_id: f.im_id,
-                score: d.score * e.score,
-                pose: e.pose,
+                score,
+                pose,
                 gt_index: None,
             });
         }
