@@ -291,23 +291,13 @@ fn run_view_detect(view: &BopView, opts: &DatasetRunOptions) -> RunOutput {
 mod tests {
     use super::*;
     use anybox_geom::iou::{intersection_volume_mm3, iou, IouMethod};
-    use anybox_synth::{generate_view, Layout, NoiseModel, SynthConfig};
 
     /// A generated table view (seed 2026, view 12) where the detector cuts a carton in two at
     /// its flap seam: the run returns the union as an alternative, flagged, scored below both
     /// parts, and closer to the carton than either part.
     #[test]
     fn detected_frame_adds_flagged_union_of_a_split_carton() {
-        let sc = SynthConfig {
-            layout: Layout::Table,
-            scenes: 30,
-            views: 1,
-            distractors: Some(0),
-            seed: 2026,
-            noise: NoiseModel::Realistic,
-            ..SynthConfig::default()
-        };
-        let v = generate_view(&sc, 12, 0);
+        let v = crate::detect::tests::table_d0_view(12);
         let config = Config::default();
         let out = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &config)
             .expect("a valid frame");

@@ -992,4 +992,4 @@ fn select(
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
