@@ -12,6 +12,7 @@
 //! cross-instance context pass (boxes in one layer share their height,
 //! [`crate::context::share_layer_heights`]), then canonical axes.
 
+use anybox_geom::symmetry::{geodesic_deg, signed_permutations};
 use anybox_geom::{Intrinsics, OrientedBox};
 use anybox_io::{DepthMap, Mask};
 use nalgebra::Vector3;
@@ -442,6 +443,100 @@ pub(crate) mod test_scene {
         }
         (depth, masks)
     }
+}
+
+/// An alternative reading of two estimates from detected masks: the one cuboid they tile
+/// ([`tiled_union`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TiledUnion {
+    /// Indices of the two parts in the slice given to [`tiled_unions`].
+    pub parts: [usize; 2],
+    /// The union cuboid, camera frame, mm (in the first part's axes).
+    pub pose: OrientedBox,
+    /// The lower of the two parts' scores times
+    /// [`DetectConfig::tiled_union_score_factor`](crate::detect::DetectConfig::tiled_union_score_factor).
+    pub score: f64,
+}
+
+/// Alternative readings for a frame's estimates from detected masks (`boxes`: pose and
+/// score of each): every pair that tiles one cuboid ([`tiled_union`]) and barely overlaps
+/// (at most 10 % of the smaller part's volume shared) gives its union, scored below both
+/// parts. Empty when `tiled_union_score_factor` is 0.
+///
+/// Why: the detector cuts a carton in two at its own flap seam or tape when nothing tells
+/// that seam from the joint of two flush cartons; each half then gets a half-size estimate
+/// (3D IoU about 0.5 with the carton). Both readings are returned; the parts rank first.
+pub fn tiled_unions(
+    boxes: &[(OrientedBox, f64)],
+    cfg: &crate::detect::DetectConfig,
+) -> Vec<TiledUnion> {
+    let mut out = Vec::new();
+    if cfg.tiled_union_score_factor <= 0.0 {
+        return out;
+    }
+    for a in 0..boxes.len() {
+        for b in a + 1..boxes.len() {
+            let ((pa, sa), (pb, sb)) = (&boxes[a], &boxes[b]);
+            let Some(u) = tiled_union(
+                pa,
+                pb,
+                cfg.tiled_union_max_angle_deg,
+                cfg.tiled_union_min_fill,
+            ) else {
+                continue;
+            };
+            let shared = anybox_geom::iou::intersection_volume_mm3(pa, pb);
+            if shared > 0.1 * pa.volume_mm3().min(pb.volume_mm3()) {
+                continue;
+            }
+            out.push(TiledUnion {
+                parts: [a, b],
+                pose: u,
+                score: sa.min(*sb) * cfg.tiled_union_score_factor,
+            });
+        }
+    }
+    out
+}
+
+/// The cuboid two boxes tile, if they do: `b`'s frame is within `max_angle_deg` of `a`'s
+/// (geodesic angle, over `b`'s axis relabellings), and the box in `a`'s axes bounding both has at most `1 / min_fill`
+/// times their summed volume (`min_fill` in 0..1). Two halves of one carton tile it; so do
+/// two flush cartons of equal section, which is why [`tiled_unions`] returns it as an
+/// alternative, not a replacement.
+pub fn tiled_union(
+    a: &OrientedBox,
+    b: &OrientedBox,
+    max_angle_deg: f64,
+    min_fill: f64,
+) -> Option<OrientedBox> {
+    // The smallest angle between the two frames over `b`'s axis relabellings.
+    let turn = signed_permutations()
+        .iter()
+        .map(|p| geodesic_deg(&a.rotation, &(b.rotation * p)))
+        .fold(f64::INFINITY, f64::min);
+    if turn > max_angle_deg {
+        return None;
+    }
+    let inv = a.rotation.inverse();
+    let (mut lo, mut hi) = (
+        Vector3::repeat(f64::INFINITY),
+        Vector3::repeat(f64::NEG_INFINITY),
+    );
+    for bx in [a, b] {
+        for p in bx.corners_mm() {
+            let q = inv * (p.coords - a.center_mm);
+            lo = lo.inf(&q);
+            hi = hi.sup(&q);
+        }
+    }
+    let u = OrientedBox {
+        rotation: a.rotation,
+        center_mm: a.center_mm + a.rotation * ((lo + hi) / 2.0),
+        size_mm: hi - lo,
+    };
+    let parts = a.volume_mm3() + b.volume_mm3();
+    (parts >= min_fill * u.volume_mm3()).then_some(u)
 }
 
 #[cfg(test)]
@@ -1029,99 +1124,4 @@ mod ycbv {
             );
         }
     }
-}
-
-/// An alternative reading of two estimates from detected masks: the one cuboid they tile
-/// ([`tiled_union`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct TiledUnion {
-    /// Indices of the two parts in the slice given to [`tiled_unions`].
-    pub parts: [usize; 2],
-    /// The union cuboid, camera frame, mm (in the first part's axes).
-    pub pose: OrientedBox,
-    /// The lower of the two parts' scores times
-    /// [`DetectConfig::tiled_union_score_factor`](crate::detect::DetectConfig::tiled_union_score_factor).
-    pub score: f64,
-}
-
-/// Alternative readings for a frame's estimates from detected masks (`boxes`: pose and
-/// score of each): every pair that tiles one cuboid ([`tiled_union`]) and barely overlaps
-/// (at most 10 % of the smaller part's volume shared) gives its union, scored below both
-/// parts. Empty when `tiled_union_score_factor` is 0.
-///
-/// Why: the detector cuts a carton in two at its own flap seam or tape when nothing tells
-/// that seam from the joint of two flush cartons; each half then gets a half-size estimate
-/// (3D IoU about 0.5 with the carton). Both readings are returned; the parts rank first.
-pub fn tiled_unions(
-    boxes: &[(OrientedBox, f64)],
-    cfg: &crate::detect::DetectConfig,
-) -> Vec<TiledUnion> {
-    let mut out = Vec::new();
-    if cfg.tiled_union_score_factor <= 0.0 {
-        return out;
-    }
-    for a in 0..boxes.len() {
-        for b in a + 1..boxes.len() {
-            let ((pa, sa), (pb, sb)) = (&boxes[a], &boxes[b]);
-            let Some(u) = tiled_union(
-                pa,
-                pb,
-                cfg.tiled_union_max_angle_deg,
-                cfg.tiled_union_min_fill,
-            ) else {
-                continue;
-            };
-            let shared = anybox_geom::iou::intersection_volume_mm3(pa, pb);
-            if shared > 0.1 * pa.volume_mm3().min(pb.volume_mm3()) {
-                continue;
-            }
-            out.push(TiledUnion {
-                parts: [a, b],
-                pose: u,
-                score: sa.min(*sb) * cfg.tiled_union_score_factor,
-            });
-        }
-    }
-    out
-}
-
-/// The cuboid two boxes tile, if they do: `b`'s axes match `a`'s (up to order and sign)
-/// within `max_angle_deg`, and the box in `a`'s axes bounding both has at most `1 / min_fill`
-/// times their summed volume (`min_fill` in 0..1). Two halves of one carton tile it; so do
-/// two flush cartons of equal section, which is why [`tiled_unions`] returns it as an
-/// alternative, not a replacement.
-pub fn tiled_union(
-    a: &OrientedBox,
-    b: &OrientedBox,
-    max_angle_deg: f64,
-    min_fill: f64,
-) -> Option<OrientedBox> {
-    let rel = a.rotation.inverse() * b.rotation;
-    let m = rel.matrix();
-    let cos_max = max_angle_deg.to_radians().cos();
-    for c in 0..3 {
-        let best = (0..3).map(|r| m[(r, c)].abs()).fold(0.0, f64::max);
-        if best < cos_max {
-            return None;
-        }
-    }
-    let inv = a.rotation.inverse();
-    let (mut lo, mut hi) = (
-        Vector3::repeat(f64::INFINITY),
-        Vector3::repeat(f64::NEG_INFINITY),
-    );
-    for bx in [a, b] {
-        for p in bx.corners_mm() {
-            let q = inv * (p.coords - a.center_mm);
-            lo = lo.inf(&q);
-            hi = hi.sup(&q);
-        }
-    }
-    let u = OrientedBox {
-        rotation: a.rotation,
-        center_mm: a.center_mm + a.rotation * ((lo + hi) / 2.0),
-        size_mm: hi - lo,
-    };
-    let parts = a.volume_mm3() + b.volume_mm3();
-    (parts >= min_fill * u.volume_mm3()).then_some(u)
 }
