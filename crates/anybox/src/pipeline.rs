@@ -460,7 +460,7 @@ pub struct TiledUnion {
 
 /// Alternative readings for a frame's estimates from detected masks (`boxes`: pose and
 /// score of each): every pair that tiles one cuboid ([`tiled_union`]) and barely overlaps
-/// (at most 10 % of the smaller part's volume shared) gives its union, scored below both
+/// (`tiled_union_max_shared`, default 10 % of the smaller part's volume) gives its union, scored below both
 /// parts. Empty when `tiled_union_score_factor` is 0.
 ///
 /// Why: the detector cuts a carton in two at its own flap seam or tape when nothing tells
@@ -486,7 +486,7 @@ pub fn tiled_unions(
                 continue;
             };
             let shared = anybox_geom::iou::intersection_volume_mm3(pa, pb);
-            if shared > 0.1 * pa.volume_mm3().min(pb.volume_mm3()) {
+            if shared > cfg.tiled_union_max_shared * pa.volume_mm3().min(pb.volume_mm3()) {
                 continue;
             }
             out.push(TiledUnion {

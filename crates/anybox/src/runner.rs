@@ -126,7 +126,8 @@ pub fn run_frame(
     out
 }
 
-/// Single-frame mode with the built-in detector (`--masks detect`): detection, the
+/// One frame with the built-in detector (`--masks detect`, dataset and single-frame mode;
+/// records carry scene and image id 0): detection, the
 /// estimator on every detection ([`Config::for_detected_masks`]), then the alternative
 /// readings of split cartons ([`crate::pipeline::tiled_unions`]). Alternative records carry
 /// `"alternative": true` and `"parts"` (the two detections' mask names) in `extra`; drop

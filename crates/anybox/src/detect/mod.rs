@@ -244,6 +244,8 @@ pub struct DetectConfig {
     pub tiled_union_max_angle_deg: f64,
     /// ... and fill at least this fraction of the union's volume. Default 0.83.
     pub tiled_union_min_fill: f64,
+    /// ... and share at most this fraction of the smaller part's volume. Default 0.1.
+    pub tiled_union_max_shared: f64,
     /// A surface-level candidate splits into its colour-level candidates when at least this
     /// many seam cells lie next to two of them with coplanar faces (flush cartons). Default 6.
     pub split_min_seam_cells: u32,
@@ -370,6 +372,7 @@ impl Default for DetectConfig {
             tiled_union_score_factor: 0.3,
             tiled_union_max_angle_deg: 10.0,
             tiled_union_min_fill: 0.83,
+            tiled_union_max_shared: 0.1,
             split_min_seam_cells: 6,
             split_flap_check: true,
             halves_min_aspect: 1.6,
