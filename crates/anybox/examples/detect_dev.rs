@@ -920,7 +920,11 @@ fn main() {
                         }
                         n
                     };
-                    print!(" cc {pieces}");
+                    print!(
+                        " cc {pieces} gpx {} zm {:.0}",
+                        gtm[k].count(),
+                        b.pose.center_mm.z
+                    );
                     println!(
                         "  3d {name} s{s} gt {k} visib {:.2} size {:.0}x{:.0}x{:.0} mask-iou {miou:.2} iou3d det {d3:.2} gt {:.2} alone det {d1:.2} gt {g1:.2} prec {prec:.2} rec {rec:.2} faces {faces}",
                         b.visib_fract, b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z, i3(&est_g[k])

@@ -91,11 +91,19 @@ pub(crate) fn support_mask(
     // "Up": the normal of the largest plane that bounds the scene (the floor). Things stand on
     // planes parallel to it (tables, shelf boards); a vertical face with floor in front of it
     // does not count.
-    let up = cands
-        .iter()
-        .filter(|c| c.2 || (cfg.support_up_from_standing && c.3))
-        .max_by(|a, b| a.1.area_mm2.total_cmp(&b.1.area_mm2))
-        .map(|c| c.1.normal);
+    // A plane facing away from the up hint (a wall behind a table, seen from above, faces
+    // down the image) is not the floor; without an allowed candidate, any is.
+    let hint = Vector3::from(cfg.support_up_hint).try_normalize(1e-9);
+    let cos_hint = cfg.support_up_max_angle_deg.to_radians().cos();
+    let pick_up = |respect_hint: bool| {
+        cands
+            .iter()
+            .filter(|c| c.2 || (cfg.support_up_from_standing && c.3))
+            .filter(|c| !respect_hint || hint.is_none_or(|h| c.1.normal.dot(&h) >= cos_hint))
+            .max_by(|a, b| a.1.area_mm2.total_cmp(&b.1.area_mm2))
+            .map(|c| c.1.normal)
+    };
+    let up = pick_up(true).or_else(|| pick_up(false));
     // Which candidates are supports, largest first: a large one that bounds the scene or has
     // things standing on it (parallel to up); a small one (a desk seen from close by) only
     // with things standing on it and no support beneath it (else it is a box top).

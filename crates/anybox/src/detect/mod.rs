@@ -141,9 +141,25 @@ pub struct DetectConfig {
     /// When true, "up" (the direction things stand along) is the normal of the largest plane
     /// that bounds the scene or has things standing on it; false: of the largest plane that
     /// bounds the scene (a wall behind a table then makes the table top a non-support).
-    /// Default false: neutral on the bench (AP50 within ±0.003 on seeds 7 and 2026), though
-    /// it makes such table tops supports.
+    /// Default true (it makes such table tops supports; AP50 within ±0.003 of false on seeds
+    /// 7 and 2026 when introduced). See also `support_up_hint`.
     pub support_up_from_standing: bool,
+    /// Which way is up, roughly, in camera coordinates (x right, y down, z forward; any
+    /// length; `[0, 0, 0]`: no hint). "Up" is taken only from a plane whose camera-facing
+    /// normal lies within `support_up_max_angle_deg` of it; when none does, from any plane.
+    /// Default `[0, -1, 0]`, the image's up, for a camera held upright: a wall behind a table,
+    /// seen from above, faces the camera and *down* the image, and, larger in view than the
+    /// table, was taken for the floor (the table top then came out as a box). A robot that
+    /// knows gravity in its camera frame can pass it here.
+    pub support_up_hint: [f64; 3],
+    /// See `support_up_hint`, degrees. Default 80: floors seen from up to 80° of elevation
+    /// qualify (a floor's normal lies at the camera's elevation angle from the image's up);
+    /// from straight above no plane does, and "up" falls back to the largest one, as without
+    /// a hint. A shelf's back wall (about 85° off) is ruled out too. Bench, 24 views, AP@0.5
+    /// against no hint, seeds 2026 / 7 / 11: tables +0.000 to +0.034, shelves +0.000 to
+    /// +0.004, pallets unchanged (at 100° the back wall qualified on some shelf views and
+    /// became up: `detect_dev`, seed 2026, 3 fewer good shelf boxes of 193).
+    pub support_up_max_angle_deg: f64,
     /// Dominant planes sought by RANSAC over all cells (floors and tables cut into pieces by
     /// noise or texture). Default 3.
     pub support_ransac_planes: u32,
@@ -344,6 +360,8 @@ impl Default for DetectConfig {
             support_min_front_fraction: 0.05,
             support_max_behind_fraction: 0.02,
             support_up_from_standing: true,
+            support_up_hint: [0.0, -1.0, 0.0],
+            support_up_max_angle_deg: 80.0,
             support_ransac_planes: 3,
             support_ransac_iters: 150,
             support_normal_tol_deg: 20.0,

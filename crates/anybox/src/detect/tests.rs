@@ -939,3 +939,80 @@ fn flush_cartons_split_at_an_aliased_crease() {
     let found = |ious: &[f64]| ious.iter().filter(|&&x| x > 0.5).count();
     assert!(found(&closed) >= found(&open), "{closed:?} vs {open:?}");
 }
+
+#[test]
+fn a_wall_behind_the_table_is_not_taken_for_the_floor() {
+    // A table (a block standing on the floor) with a box on it and a wall behind it that
+    // faces the camera and down the image, larger in view than the table top.
+    let top = Scene::new();
+    let floor = Scene {
+        up: top.up,
+        p0: top.p0 - top.up * 700.0,
+    };
+    let bx = table_box(&top);
+    let table = floor.standing_box(0.0, 0.0, 0.0, Vector3::new(700.0, 400.0, 700.0));
+    let wall = floor.standing_box(0.0, 0.0, 230.0, Vector3::new(6000.0, 60.0, 4000.0));
+    let (rgb, depth, owner) =
+        floor.render(&[Obj::Cuboid(bx), Obj::Cuboid(table), Obj::Cuboid(wall)]);
+    let gt = mask_of(&owner, 0);
+    // The table top: table pixels on its top plane.
+    let kk = k();
+    let top_mask = Mask {
+        width: W,
+        height: H,
+        data: (0..(W * H) as usize)
+            .map(|i| {
+                let r = kk.ray((i as u32 % W) as f64, (i as u32 / W) as f64);
+                let p = r * depth.depth_mm[i] as f64;
+                owner[i] == 1 && (p - top.p0).dot(&top.up).abs() < 5.0
+            })
+            .collect(),
+    };
+    // Share of the table top inside a detection.
+    let on_top = |d: &Detection| {
+        let shared = d
+            .mask
+            .data
+            .iter()
+            .zip(&top_mask.data)
+            .filter(|(a, b)| **a && **b)
+            .count();
+        shared as f64 / top_mask.count().max(1) as f64
+    };
+    let no_hint = DetectConfig {
+        support_up_hint: [0.0; 3],
+        ..DetectConfig::default()
+    };
+    // Premise: with "up" taken from the largest plane, the wall's, the table top is no
+    // support and comes out as the best "box".
+    let dets = detect_boxes(Some(&rgb), &depth, &kk, &no_hint).unwrap();
+    assert!(
+        on_top(&dets[0]) > 0.5,
+        "premise: table top first ({:.2})",
+        on_top(&dets[0])
+    );
+    // The image's up rules the wall out: the box comes first, and no detection is table top.
+    let dets = detect_boxes(Some(&rgb), &depth, &kk, &DetectConfig::default()).unwrap();
+    assert!(
+        iou(&dets[0].mask, &gt) > 0.85,
+        "box first: IoU {:.2}",
+        iou(&dets[0].mask, &gt)
+    );
+    for d in &dets {
+        assert!(
+            on_top(d) < 0.05,
+            "{:.2} of the table top in a detection",
+            on_top(d)
+        );
+    }
+    // A hint pointing elsewhere (a camera rolled by 90°) leaves no plane allowed, and "up"
+    // falls back to the largest plane: the result without a hint.
+    let rolled = DetectConfig {
+        support_up_hint: [1.0, 0.0, 0.0],
+        ..DetectConfig::default()
+    };
+    assert_eq!(
+        detect_boxes(Some(&rgb), &depth, &kk, &rolled).unwrap(),
+        detect_boxes(Some(&rgb), &depth, &kk, &no_hint).unwrap()
+    );
+}
