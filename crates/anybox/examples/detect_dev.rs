@@ -462,6 +462,10 @@ fn main() {
                     anybox::pipeline::estimate_frame(&v.depth, &v.intrinsics, &eroded, &cfg_e);
                 let gtm: Vec<Mask> = v.boxes.iter().map(|b| b.mask_visib.clone()).collect();
                 let est_g = anybox::pipeline::estimate_frame(&v.depth, &v.intrinsics, &gtm, &cfg_e);
+                let sup_px =
+                    anybox::detect::segment_labels(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg)
+                        .ok()
+                        .map(|l| l[3].clone());
                 if std::env::var("DET3D").is_ok() {
                     // Per detection: its score and the best 3D IoU of its estimate with any
                     // GT box (and that GT's visibility).
@@ -925,6 +929,16 @@ fn main() {
                         gtm[k].count(),
                         b.pose.center_mm.z
                     );
+                    // Share of the GT mask on support cells (eaten by the table's band).
+                    if let Some(sup) = &sup_px {
+                        let on = gtm[k]
+                            .data
+                            .iter()
+                            .zip(sup)
+                            .filter(|(m, s)| **m && **s == 1)
+                            .count();
+                        print!(" sup {:.2}", on as f64 / gtm[k].count().max(1) as f64);
+                    }
                     println!(
                         "  3d {name} s{s} gt {k} visib {:.2} size {:.0}x{:.0}x{:.0} mask-iou {miou:.2} iou3d det {d3:.2} gt {:.2} alone det {d1:.2} gt {g1:.2} prec {prec:.2} rec {rec:.2} faces {faces}",
                         b.visib_fract, b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z, i3(&est_g[k])
