@@ -203,6 +203,15 @@ fn mask_of(owner: &[u8], id: u8) -> Mask {
     }
 }
 
+/// Pixels in both masks.
+fn shared_px(a: &Mask, b: &Mask) -> usize {
+    a.data
+        .iter()
+        .zip(&b.data)
+        .filter(|(x, y)| **x && **y)
+        .count()
+}
+
 fn iou(a: &Mask, b: &Mask) -> f64 {
     let (mut i, mut u) = (0usize, 0usize);
     for (x, y) in a.data.iter().zip(&b.data) {
@@ -868,16 +877,7 @@ fn background_seen_through_a_frame_gives_no_detection() {
         detect_boxes(Some(&rgb), &depth, &k(), cfg)
             .unwrap()
             .into_iter()
-            .filter(|d| {
-                let inside = d
-                    .mask
-                    .data
-                    .iter()
-                    .zip(&on_panel.data)
-                    .filter(|(a, b)| **a && **b)
-                    .count();
-                2 * inside > d.mask.count()
-            })
+            .filter(|d| 2 * shared_px(&d.mask, &on_panel) > d.mask.count())
             .map(|d| (d.score, d.n_faces, d.mask.count()))
             .collect::<Vec<_>>()
     };
@@ -969,16 +969,8 @@ fn a_wall_behind_the_table_is_not_taken_for_the_floor() {
             .collect(),
     };
     // Share of the table top inside a detection.
-    let on_top = |d: &Detection| {
-        let shared = d
-            .mask
-            .data
-            .iter()
-            .zip(&top_mask.data)
-            .filter(|(a, b)| **a && **b)
-            .count();
-        shared as f64 / top_mask.count().max(1) as f64
-    };
+    let on_top =
+        |d: &Detection| shared_px(&d.mask, &top_mask) as f64 / top_mask.count().max(1) as f64;
     let no_hint = DetectConfig {
         support_up_hint: [0.0; 3],
         ..DetectConfig::default()
