@@ -173,7 +173,7 @@ fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], objs: Option<&[u32]>, ta
                 _ => "mixed",
             };
             println!(
-                "KIND {kind} prec {prec:.2} rec {rec:.2} score {:.3} faces {} dup {} frame {} bbox {:?}",
+                "KIND {kind} prec {prec:.2} rec {rec:.2} score {:.3} faces {} dup {} frame {} gt {k} bbox {:?}",
                 d.score,
                 d.n_faces,
                 matched.get(k).copied().unwrap_or(false), tally.frames, d.mask.bbox()

@@ -32,6 +32,9 @@ use crate::observation::median;
 pub(crate) struct Candidate {
     /// Grid cells of the detection (the faces plus filled-in unlabelled cells), row-major.
     pub cells: Vec<u32>,
+    /// Side-face strips taken in past a one-face candidate's edges (`side_strips`), row-major;
+    /// part of the mask, but not of the size that decides whether the face is big enough.
+    pub strip: Vec<u32>,
     /// Box-likeness, 0..1.
     pub score: f64,
     /// Faces grouped.
@@ -711,14 +714,131 @@ pub(crate) fn fill(
                 }
             }
         }
+        let mut strip = Vec::new();
+        if raw.n_faces == 1 {
+            strip = side_strips(g, &raw.bx, &cells, claimed, cfg);
+            for &i in &strip {
+                claimed[i as usize] = true;
+            }
+        }
         cells.sort_unstable();
+        strip.sort_unstable();
         result.push(Candidate {
             cells,
+            strip,
             score: raw.score,
             n_faces: raw.n_faces,
         });
     }
     result
+}
+
+/// The side faces of a one-face candidate seen past its edges, as unclaimed grid cells.
+///
+/// A box's side faces are too thin in view to become faces of their own when seen at a
+/// grazing angle (a strip a few cells wide has no reliable normal), yet without them the
+/// estimator cannot measure the box's depth. Geometry says where they must lie: a side face
+/// hangs from an edge of the front face straight back, so its points lie behind the face's
+/// plane and project onto the plane on that edge; and it is seen only when it faces the
+/// camera. Cells meeting that, reached from the candidate through depth-continuous
+/// 4-neighbours, are taken in (see [`DetectConfig::side_strip_max_mm`]).
+fn side_strips(
+    g: &Grid,
+    face: &OrientedBox,
+    cells: &[u32],
+    claimed: &[bool],
+    cfg: &DetectConfig,
+) -> Vec<u32> {
+    if cfg.side_strip_max_mm <= 0.0 {
+        return Vec::new();
+    }
+    let c = face.center_mm;
+    // The thin axis is the face normal; turned towards the camera.
+    let thin = (0..3)
+        .min_by(|&a, &b| face.size_mm[a].total_cmp(&face.size_mm[b]))
+        .unwrap_or(0);
+    let mut n = face.axis(thin);
+    if n.dot(&c) > 0.0 {
+        n = -n;
+    }
+    let (e1, e2) = (face.axis((thin + 1) % 3), face.axis((thin + 2) % 3));
+    let (h1, h2) = (
+        face.size_mm[(thin + 1) % 3] / 2.0,
+        face.size_mm[(thin + 2) % 3] / 2.0,
+    );
+    let slack = cfg.side_strip_slack_deg.to_radians().tan();
+    // Which edge's side face a cell lies on (0..4: −u, +u, −v, +v), 4 for the face's own
+    // plane, `None` when it lies on neither.
+    let side_of = |i: usize| -> Option<usize> {
+        if g.z[i] <= 0.0 || claimed[i] {
+            return None;
+        }
+        let p = v3(&g.p[i]);
+        let d = n.dot(&(p - c));
+        let tol = plane_tol(cfg, g.z[i] as f64);
+        if d > tol || d < -cfg.side_strip_max_mm {
+            return None;
+        }
+        // Within the face's rectangle (grown by the tolerance and, the further back, by the
+        // slack for a tilted normal) ...
+        let band = tol + slack * (-d).max(0.0);
+        let (u, v) = (e1.dot(&(p - c)), e2.dot(&(p - c)));
+        if u.abs() > h1 + band || v.abs() > h2 + band {
+            return None;
+        }
+        if d >= -tol {
+            return Some(4);
+        }
+        // ... and, behind the plane, on an edge whose side face the camera sees.
+        let on = |x: f64, h: f64, e: &Vector3<f64>| {
+            x.abs() >= h - band && (e * x.signum()).dot(&p) < 0.0
+        };
+        if on(u, h1, &e1) {
+            Some(if u < 0.0 { 0 } else { 1 })
+        } else if on(v, h2, &e2) {
+            Some(if v < 0.0 { 2 } else { 3 })
+        } else {
+            None
+        }
+    };
+    let (w, h) = (g.w, g.h);
+    let mut seen: std::collections::HashSet<u32> = cells.iter().copied().collect();
+    let mut stack: Vec<u32> = cells.to_vec();
+    let mut found: [Vec<u32>; 5] = Default::default();
+    while let Some(i) = stack.pop() {
+        let i = i as usize;
+        let (u, v) = (i % w, i / w);
+        let nb = [
+            (u > 0).then(|| i - 1),
+            (u + 1 < w).then(|| i + 1),
+            (v > 0).then(|| i - w),
+            (v + 1 < h).then(|| i + w),
+        ];
+        for j in nb.into_iter().flatten() {
+            if seen.contains(&(j as u32)) {
+                continue;
+            }
+            let (zi, zj) = (g.z[i], g.z[j]);
+            if zi <= 0.0 || (zi - zj).abs() > super::grid::jump_tol(cfg, zi.min(zj)) {
+                continue;
+            }
+            if let Some(s) = side_of(j) {
+                seen.insert(j as u32);
+                found[s].push(j as u32);
+                stack.push(j as u32);
+            }
+        }
+    }
+    // A few cells behind an edge are a sliver, not a side face: the estimator would take
+    // their width for the box's depth.
+    let min = cfg.side_strip_min_cells as usize;
+    let mut out = std::mem::take(&mut found[4]);
+    for f in found.into_iter().take(4) {
+        if f.len() >= min {
+            out.extend(f);
+        }
+    }
+    out
 }
 
 /// Cuboid fit and box-likeness of one group of faces; `None` when rejected.

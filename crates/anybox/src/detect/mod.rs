@@ -295,6 +295,18 @@ pub struct DetectConfig {
     /// the plane tolerance on every side (edge bands, grazing side faces, a box's foot next to
     /// its support). Default 1 (2 takes in too much on shelves).
     pub fill_margin_factor: f64,
+    /// A one-face candidate also takes in the side faces seen past its edges, up to this far
+    /// behind its face, mm: cells behind the face's plane that project onto one of its edges,
+    /// where the side face hanging from that edge faces the camera, reached through
+    /// depth-continuous neighbours. Seen at a grazing angle those faces are strips too thin
+    /// to be faces of their own, and without them the estimator cannot measure the box's
+    /// depth. 0 disables. Default 600.
+    pub side_strip_max_mm: f64,
+    /// ... with this much slack for the face normal's error: the band around an edge widens
+    /// by tan(slack) × distance behind the face, degrees. Default 4.
+    pub side_strip_slack_deg: f64,
+    /// ... and only where at least this many cells lie behind one edge. Default 60.
+    pub side_strip_min_cells: u32,
     /// Object-level candidates: every connected object left after support removal (cells
     /// joined by depth continuity alone) is also tried as one box (see `blobs`). Default true.
     pub blobs: bool,
@@ -401,6 +413,9 @@ impl Default for DetectConfig {
             split_min_fraction: 0.03,
             max_overlap: 0.3,
             fill_margin_factor: 1.0,
+            side_strip_max_mm: 600.0,
+            side_strip_slack_deg: 4.0,
+            side_strip_min_cells: 60,
             blobs: true,
             blob_split_concave: true,
             blob_max_cuts: 6,
@@ -503,10 +518,16 @@ pub fn detect_boxes(
     let mut out: Vec<Detection> = cands
         .into_iter()
         .filter_map(|c| {
-            let mask = cells_to_mask(&g, depth, &c.cells, Some(cfg));
+            let mut mask = cells_to_mask(&g, depth, &c.cells, Some(cfg));
             let px = mask.count() as f64;
             if c.n_faces == 1 && px < one_face_min {
                 return None;
+            }
+            if !c.strip.is_empty() {
+                let strip = cells_to_mask(&g, depth, &c.strip, Some(cfg));
+                for (m, s) in mask.data.iter_mut().zip(&strip.data) {
+                    *m |= *s;
+                }
             }
             Some(Detection {
                 mask,
