@@ -741,7 +741,8 @@ pub(crate) fn fill(
 /// hangs from an edge of the front face straight back, so its points lie behind the face's
 /// plane and project onto the plane on that edge; and it is seen only when it faces the
 /// camera. Cells meeting that, reached from the candidate through depth-continuous
-/// 4-neighbours, are taken in (see [`DetectConfig::side_strip_max_mm`]).
+/// 4-neighbours, are taken in (see [`DetectConfig::side_strip_max_mm`]), as are cells on the
+/// face's own plane within its rectangle that the candidate missed.
 fn side_strips(
     g: &Grid,
     face: &OrientedBox,

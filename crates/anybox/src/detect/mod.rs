@@ -21,10 +21,11 @@
 //!    isolated boxes whose faces the grouping could not tie together.
 //!
 //! Object-, surface- and colour-level candidates then compete by score; a coarse candidate with
-//! a seam between coplanar colour patches (flush cartons) gives way to the finer ones. Output
-//! masks keep, per pixel, only the front surface of their grid cell; output scores are the
-//! box-likeness times an evidence factor that grows with the mask's size
-//! ([`DetectConfig::evidence_half_pixels`]).
+//! a seam between coplanar colour patches (flush cartons) gives way to the finer ones. A
+//! one-face candidate's mask also takes in the side faces seen as thin strips past its edges
+//! ([`DetectConfig::side_strip_max_mm`]). Output masks keep, per pixel, only the front
+//! surface of their grid cell; output scores are the box-likeness times an evidence factor
+//! that grows with the mask's size ([`DetectConfig::evidence_half_pixels`]).
 //!
 //! Every threshold is a documented field of [`DetectConfig`] (`Config::detect`). The detector is
 //! deterministic: the same input and config give the same detections in the same order.
