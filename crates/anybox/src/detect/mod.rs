@@ -524,12 +524,7 @@ pub fn detect_boxes(
             if c.n_faces == 1 && px < one_face_min {
                 return None;
             }
-            if !c.strip.is_empty() {
-                let strip = cells_to_mask(&g, depth, &c.strip, Some(cfg));
-                for (m, s) in mask.data.iter_mut().zip(&strip.data) {
-                    *m |= *s;
-                }
-            }
+            paint_cells(&mut mask, &g, depth, &c.strip, Some(cfg));
             Some(Detection {
                 mask,
                 score: c.score * evidence(px, half),
@@ -634,8 +629,20 @@ fn cells_to_mask(
     cells: &[u32],
     drop_behind: Option<&DetectConfig>,
 ) -> Mask {
-    let (fw, fh) = (depth.width as usize, depth.height as usize);
     let mut mask = Mask::empty(depth.width, depth.height);
+    paint_cells(&mut mask, g, depth, cells, drop_behind);
+    mask
+}
+
+/// Sets the pixels of grid `cells` in `mask` (frame-sized), as [`cells_to_mask`] does.
+fn paint_cells(
+    mask: &mut Mask,
+    g: &grid::Grid,
+    depth: &DepthMap,
+    cells: &[u32],
+    drop_behind: Option<&DetectConfig>,
+) {
+    let (fw, fh) = (depth.width as usize, depth.height as usize);
     for &cell in cells {
         let (gu, gv) = (cell as usize % g.w, cell as usize / g.w);
         let z_cell = g.z[cell as usize];
@@ -651,7 +658,6 @@ fn cells_to_mask(
             }
         }
     }
-    mask
 }
 
 /// Diagnostic view of the candidate pool: every object-level (`'o'`), surface-level (`'s'`)
