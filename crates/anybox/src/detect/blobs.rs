@@ -14,6 +14,7 @@
 //! their seams, as surfaces are.
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 
 use super::boxes::{rectangle_axes, robust_range, score_faces, v3, Raw};
 use super::grid::Grid;
@@ -278,23 +279,50 @@ pub(crate) fn blob_candidates(
     off: &[bool],
     cfg: &DetectConfig,
 ) -> Vec<Raw> {
-    let mut part: Vec<u32> = labels.to_vec();
     let mut cells: Vec<Vec<u32>> = vec![Vec::new(); n_blobs];
     for (i, &l) in labels.iter().enumerate() {
         if l != NONE {
             cells[l as usize].push(i as u32);
         }
     }
-    let dbg = std::env::var("DETECT_DEBUG").is_ok();
-    let mut next = n_blobs as u32;
-    // (label, cells, cuts so far)
-    let mut work: Vec<(u32, Vec<u32>, u32)> = cells
-        .into_iter()
+    // Objects are independent (cutting one relabels only its own cells): in parallel. The
+    // candidates come in the order of a sequential last-object-first walk, so that equal
+    // scores keep their order whatever the thread count.
+    let per_object: Vec<Vec<Raw>> = cells
+        .into_par_iter()
         .enumerate()
-        .map(|(b, c)| (b as u32, c, 0))
+        .map(|(b, c)| object_candidates(g, labels, b as u32, c, off, cfg))
         .collect();
+    let mut out: Vec<Raw> = per_object.into_iter().rev().flatten().collect();
+    out.sort_by(|a, b| b.score.total_cmp(&a.score));
+    out
+}
+
+/// The candidates of one object (label `b`, its `cells` ascending), cut recursively (depth
+/// first, the far side of a cut first).
+fn object_candidates(
+    g: &Grid,
+    labels: &[u32],
+    b: u32,
+    cells: Vec<u32>,
+    off: &[bool],
+    cfg: &DetectConfig,
+) -> Vec<Raw> {
+    let dbg = std::env::var("DETECT_DEBUG").is_ok();
+    // Part index of each of the object's cells (same order as `cells`); cells outside the
+    // object belong to no part of it.
+    let mut part: Vec<u32> = vec![0; cells.len()];
+    let part_of = |part: &[u32], i: usize| -> Option<u32> {
+        if labels[i] != b {
+            return None;
+        }
+        cells.binary_search(&(i as u32)).ok().map(|k| part[k])
+    };
+    let mut next = 1u32;
+    // (part, cells, cuts so far)
+    let mut work: Vec<(u32, Vec<u32>, u32)> = vec![(0, cells.clone(), 0)];
     let mut out = Vec::new();
-    while let Some((b, blob, depth)) = work.pop() {
+    while let Some((pi, blob, depth)) = work.pop() {
         if blob.len() < cfg.min_face_cells as usize {
             continue;
         }
@@ -313,7 +341,7 @@ pub(crate) fn blob_candidates(
                 }
                 if dbg && blob.len() > 200 {
                     eprintln!(
-                        "blob {b} n {} cut at {s0:.0} along {:.2} {:.2} {:.2}: {} + {}",
+                        "blob {b}.{pi} n {} cut at {s0:.0} along {:.2} {:.2} {:.2}: {} + {}",
                         blob.len(),
                         e.x,
                         e.y,
@@ -323,9 +351,12 @@ pub(crate) fn blob_candidates(
                     );
                 }
                 for &i in &hi {
-                    part[i as usize] = next;
+                    // Every cell of a part is one of the object's cells.
+                    if let Ok(k) = cells.binary_search(&i) {
+                        part[k] = next;
+                    }
                 }
-                work.push((b, lo, depth + 1));
+                work.push((pi, lo, depth + 1));
                 work.push((next, hi, depth + 1));
                 next += 1;
                 continue;
@@ -333,7 +364,7 @@ pub(crate) fn blob_candidates(
         }
         if dbg && blob.len() > 200 {
             eprintln!(
-                "blob {b} n {} faces {} fit {:.2} agree {:.2} bend {:.1}",
+                "blob {b}.{pi} n {} faces {} fit {:.2} agree {:.2} bend {:.1}",
                 blob.len(),
                 fr.axes.len(),
                 fr.fit,
@@ -348,14 +379,13 @@ pub(crate) fn blob_candidates(
             continue;
         }
         let face_refs: Vec<&[u32]> = fr.faces.iter().map(Vec::as_slice).collect();
-        let member = |i: usize| part[i] == b;
-        let unknown = |i: usize| part[i] == NONE && !off[i];
+        let member = |i: usize| part_of(&part, i) == Some(pi);
+        let unknown = |i: usize| labels[i] == NONE && !off[i];
         if let Some(raw) = score_faces(
             g, blob, &face_refs, &fr.axes, fr.fit, &member, &unknown, cfg,
         ) {
             out.push(raw);
         }
     }
-    out.sort_by(|a, b| b.score.total_cmp(&a.score));
     out
 }

@@ -232,6 +232,22 @@ fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) ->
         .map(|&i| to2(&v3(&g.p[i])))
         .collect();
     let hull = convex_hull_2d(&pts);
+    // The hull's bounding box rejects most cells before the polygon test.
+    let (lo, hi) = hull.iter().fold(
+        (
+            Point2::new(f64::INFINITY, f64::INFINITY),
+            Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY),
+        ),
+        |(lo, hi), q| {
+            (
+                Point2::new(lo.x.min(q.x), lo.y.min(q.y)),
+                Point2::new(hi.x.max(q.x), hi.y.max(q.y)),
+            )
+        },
+    );
+    let inside = |q: &Point2<f64>| {
+        q.x >= lo.x && q.x <= hi.x && q.y >= lo.y && q.y <= hi.y && inside_convex(&hull, q)
+    };
     let (mut front, mut behind_in, mut behind, mut valid) = (0usize, 0usize, 0usize, 0usize);
     // Every third cell: the tests compare fractions, and the frame's cells are many.
     const SUB: usize = 3;
@@ -247,7 +263,7 @@ fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) ->
         if d.abs() <= cfg.support_side_margin_mm || d.abs() > cfg.support_window_mm {
             continue;
         }
-        if inside_convex(&hull, &to2(&v3(&g.p[i]))) {
+        if inside(&to2(&v3(&g.p[i]))) {
             if d > 0.0 {
                 front += 1;
             } else {
@@ -272,7 +288,7 @@ fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
         .filter(|&i| g.z[i] > 0.0)
         .step_by(3)
         .collect();
-    let mut out = Vec::new();
+    let mut found: Vec<(Region, Vec<usize>)> = Vec::new();
     // A fixed seed keeps the detector deterministic.
     let mut rng = ChaCha8Rng::seed_from_u64(0x005E_ED0F_5077);
     let mut next = |n: usize| -> usize { rng.random_range(0..n.max(1)) };
@@ -307,9 +323,31 @@ fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
                 Some((a, n))
             })
             .collect();
+        // The scoring sample, gathered once per plane into contiguous memory (the same test as
+        // `fits`, without re-reading the grid for every hypothesis).
+        let sample: Vec<SampleCell> = pool
+            .iter()
+            .step_by(8)
+            .map(|&i| {
+                let cn = v3(&g.n[i]);
+                SampleCell {
+                    p: v3(&g.p[i]),
+                    n: cn,
+                    tol: cfg.support_tol_factor * plane_tol(cfg, g.p[i][2] as f64),
+                    any_normal: cn.norm_squared() < 0.5,
+                }
+            })
+            .collect();
         let counts: Vec<usize> = hyps
             .par_iter()
-            .map(|(a, n)| pool.iter().step_by(8).filter(|&&i| fits(i, a, n)).count())
+            .map(|(a, n)| {
+                sample
+                    .iter()
+                    .filter(|c| {
+                        (c.p - a).dot(n).abs() <= c.tol && (c.any_normal || c.n.dot(n) >= cos_n)
+                    })
+                    .count()
+            })
             .collect();
         let mut best: Option<(usize, Vector3<f64>, Vector3<f64>)> = None;
         for ((a, n), count) in hyps.into_iter().zip(counts) {
@@ -369,12 +407,35 @@ fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
         if area < cfg.support_small_area_mm2 {
             break;
         }
-        let (strong, standing) = support_tests(g, &reg, &inl, cfg);
-        out.push((reg, strong, standing));
-        let taken: std::collections::BTreeSet<usize> = inl.into_iter().collect();
-        pool.retain(|i| !taken.contains(i));
+        // `inl` is a subsequence of `pool` (both ascending): one merge pass removes it.
+        let mut taken = inl.iter().peekable();
+        pool.retain(|i| {
+            if taken.peek() == Some(&i) {
+                taken.next();
+                false
+            } else {
+                true
+            }
+        });
+        found.push((reg, inl));
     }
-    out
+    // The support tests do not steer the search: run them once it is done, in parallel.
+    found
+        .into_par_iter()
+        .map(|(reg, inl)| {
+            let (strong, standing) = support_tests(g, &reg, &inl, cfg);
+            (reg, strong, standing)
+        })
+        .collect()
+}
+
+/// A cell of the RANSAC scoring sample: point (mm), normal, plane tolerance (mm, with
+/// `support_tol_factor`), and whether its normal is unknown (then any normal fits).
+struct SampleCell {
+    p: Vector3<f64>,
+    n: Vector3<f64>,
+    tol: f64,
+    any_normal: bool,
 }
 
 /// Point in a convex polygon (either orientation).

@@ -360,8 +360,8 @@ fn normals(zs: &[f32], ps: &[[f32; 3]], w: usize, h: usize, cfg: &DetectConfig) 
 /// 3×3 box filter of the colours (edges clamp).
 fn box3(c: &[[f32; 3]], w: usize, h: usize) -> Vec<[f32; 3]> {
     let mut out = vec![[0f32; 3]; w * h];
-    for v in 0..h {
-        for u in 0..w {
+    out.par_chunks_mut(w).enumerate().for_each(|(v, row)| {
+        for (u, o) in row.iter_mut().enumerate() {
             let mut s = [0f32; 3];
             let mut n = 0f32;
             for vv in v.saturating_sub(1)..(v + 2).min(h) {
@@ -373,9 +373,9 @@ fn box3(c: &[[f32; 3]], w: usize, h: usize) -> Vec<[f32; 3]> {
                     n += 1.0;
                 }
             }
-            out[v * w + u] = [s[0] / n, s[1] / n, s[2] / n];
+            *o = [s[0] / n, s[1] / n, s[2] / n];
         }
-    }
+    });
     out
 }
 

@@ -38,6 +38,7 @@ mod regions;
 
 use anybox_geom::Intrinsics;
 use anybox_io::{DepthMap, Mask, RgbImage};
+use rayon::prelude::*;
 use regions::Cues;
 use serde::{Deserialize, Serialize};
 
@@ -516,8 +517,9 @@ pub fn detect_boxes(
     let area = (fw * fh) as f64 / (640.0 * 480.0);
     let one_face_min = cfg.one_face_min_pixels as f64 * area;
     let half = cfg.evidence_half_pixels.max(0.0) * area;
+    // Frame-sized masks, built in parallel (the order is kept).
     let mut out: Vec<Detection> = cands
-        .into_iter()
+        .into_par_iter()
         .filter_map(|c| {
             let mut mask = cells_to_mask(&g, depth, &c.cells, Some(cfg));
             let px = mask.count() as f64;
