@@ -708,18 +708,22 @@ pub(crate) fn group_candidates(
         }
         members[ga].extend(moved);
     }
-    let mut out: Vec<Raw> = Vec::new();
-    for (gi, mem) in members.iter().enumerate() {
-        if mem.is_empty() || group_of[gi] != gi || !mem.iter().all(|&f| face[f]) {
-            continue;
-        }
-        if mem.len() == 1 && touches_curved[mem[0]] {
-            continue;
-        }
-        if let Some(c) = score_group(g, labels, regions, on_support, &cells, mem, cfg) {
-            out.push(c);
-        }
-    }
+    let groups: Vec<&Vec<usize>> = members
+        .iter()
+        .enumerate()
+        .filter(|&(gi, mem)| {
+            !mem.is_empty()
+                && group_of[gi] == gi
+                && mem.iter().all(|&f| face[f])
+                && !(mem.len() == 1 && touches_curved[mem[0]])
+        })
+        .map(|(_, mem)| mem)
+        .collect();
+    // Groups are scored independently: in parallel (the order is kept).
+    let mut out: Vec<Raw> = groups
+        .into_par_iter()
+        .filter_map(|mem| score_group(g, labels, regions, on_support, &cells, mem, cfg))
+        .collect();
     out.sort_by(|a, b| b.score.total_cmp(&a.score));
     out
 }
