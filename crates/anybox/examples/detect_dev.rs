@@ -13,6 +13,8 @@
 //! e.g. r = 1.2) with the fill, the parts' and the union's best
 //! 3D IoU. `RAW=1` with a dump dir also writes the image with invalid depth in red. `REPS=n`
 //! times the detector (with `EST=1`, detection and estimation) as the fastest of n runs.
+//! `DETECT_DEBUG=1` prints the detector's `log::debug!` diagnostics (planes, regions, face
+//! pairs, selection) to stderr.
 //! A GT box counts when its visible fraction is ≥ 0.5; a detection is a true positive when its
 //! mask IoU with an unmatched such GT is > 0.5 (greedy in score order); detections matching a
 //! GT with lower visibility are ignored (neither TP nor FP).
@@ -378,7 +380,23 @@ fn dump_labels(
     }
 }
 
+/// Prints `log` records to stderr (the detector's diagnostics with `DETECT_DEBUG=1`).
+struct StderrLog;
+
+impl log::Log for StderrLog {
+    fn enabled(&self, _: &log::Metadata) -> bool {
+        true
+    }
+    fn log(&self, record: &log::Record) {
+        eprintln!("{}", record.args());
+    }
+    fn flush(&self) {}
+}
+
 fn main() {
+    if std::env::var("DETECT_DEBUG").is_ok() && log::set_logger(&StderrLog).is_ok() {
+        log::set_max_level(log::LevelFilter::Debug);
+    }
     let args: Vec<String> = std::env::args().collect();
     let n_views: u32 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(6);
     let dump_dir = args.get(2).map(std::path::PathBuf::from);

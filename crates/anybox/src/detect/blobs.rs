@@ -220,8 +220,8 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<(Vector3<f64>, 
                 split = Some((x, gap));
             }
         }
-        if std::env::var("DETECT_DEBUG").is_ok() && t.len() > 500 {
-            eprintln!(
+        if log::log_enabled!(log::Level::Debug) && t.len() > 500 {
+            log::debug!(
                 "  step? face {k} n {} side {side} gap_tol {gap_tol:.0} range {:.0}..{:.0} split {:?}",
                 t.len(),
                 t[0].0,
@@ -308,7 +308,7 @@ fn object_candidates(
     off: &[bool],
     cfg: &DetectConfig,
 ) -> Vec<Raw> {
-    let dbg = std::env::var("DETECT_DEBUG").is_ok();
+    let dbg = log::log_enabled!(log::Level::Debug);
     // Part index of each of the object's cells (same order as `cells`); cells outside the
     // object belong to no part of it.
     let mut part: Vec<u32> = vec![0; cells.len()];
@@ -340,7 +340,7 @@ fn object_candidates(
                     }
                 }
                 if dbg && blob.len() > 200 {
-                    eprintln!(
+                    log::debug!(
                         "blob {b}.{pi} n {} cut at {s0:.0} along {:.2} {:.2} {:.2}: {} + {}",
                         blob.len(),
                         e.x,
@@ -363,7 +363,7 @@ fn object_candidates(
             }
         }
         if dbg && blob.len() > 200 {
-            eprintln!(
+            log::debug!(
                 "blob {b}.{pi} n {} faces {} fit {:.2} agree {:.2} bend {:.1}",
                 blob.len(),
                 fr.axes.len(),

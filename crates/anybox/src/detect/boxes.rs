@@ -133,9 +133,9 @@ pub(crate) fn support_mask(
                 })
         };
     }
-    if std::env::var("DETECT_DEBUG").is_ok() {
+    if log::log_enabled!(log::Level::Debug) {
         for c in &cands {
-            eprintln!(
+            log::debug!(
                 "support cand {:?} area {:.0} n {} normal {:.2} {:.2} {:.2} strong {} standing {} up {:?}",
                 c.0, c.1.area_mm2, c.1.n, c.1.normal.x, c.1.normal.y, c.1.normal.z, c.2, c.3, up
             );
@@ -395,8 +395,8 @@ fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
             colour: [0.0; 3],
             area_mm2: area,
         };
-        if std::env::var("DETECT_DEBUG").is_ok() {
-            eprintln!(
+        if log::log_enabled!(log::Level::Debug) {
+            log::debug!(
                 "ransac plane n {} area {:.0} normal {:?} support {:?}",
                 inl.len(),
                 area,
@@ -539,10 +539,10 @@ pub(crate) fn group_candidates(
 ) -> Vec<Raw> {
     let n = regions.len();
     let face: Vec<bool> = regions.iter().map(|r| is_face(r, cfg)).collect();
-    if std::env::var("DETECT_DEBUG").is_ok() {
+    if log::log_enabled!(log::Level::Debug) {
         for (k, r) in regions.iter().enumerate() {
             if r.n >= 100 {
-                eprintln!(
+                log::debug!(
                     "region {k} n {} face {} inl {:.2} spread {:.1} bend {:.1} normal {:.2} {:.2} {:.2} at {:?}",
                     r.n, face[k], r.inlier_frac, r.normal_spread_deg, r.bend_deg,
                     r.normal.x, r.normal.y, r.normal.z,
@@ -660,12 +660,12 @@ pub(crate) fn group_candidates(
         let (la, lb) = (extent_along(a, &e), extent_along(b, &e));
         la.min(lb) >= cfg.edge_length_ratio * la.max(lb)
     };
-    if std::env::var("DETECT_DEBUG").is_ok() {
+    if log::log_enabled!(log::Level::Debug) {
         for (&(a, b), &c) in &contact {
             let (ra, rb) = (&regions[a as usize], &regions[b as usize]);
             let e = ra.normal.cross(&rb.normal);
             let e = e.normalize();
-            eprintln!(
+            log::debug!(
                 "pair {a}({}) {b}({}) contacts {c} dot {:.2} convex {:.0} {:.0} edge {:.0} {:.0} compat {}",
                 ra.n,
                 rb.n,
@@ -1102,10 +1102,10 @@ pub(crate) fn score_faces(
     };
     let max_dim = observed.iter().cloned().fold(0.0, f64::max);
     let min_dim = observed.iter().cloned().fold(f64::INFINITY, f64::min);
-    let dbg = std::env::var("DETECT_DEBUG").is_ok();
+    let dbg = log::log_enabled!(log::Level::Debug);
     if max_dim > cfg.max_box_extent_mm || min_dim < cfg.min_box_extent_mm {
         if dbg && all.len() > 300 {
-            eprintln!(
+            log::debug!(
                 "group of {n_faces} n {} rejected size {max_dim:.0} {min_dim:.0}",
                 all.len()
             );
@@ -1166,7 +1166,7 @@ pub(crate) fn score_faces(
     };
     let score = (fit * iou * depth_ok * faces_factor).clamp(0.0, 1.0);
     if dbg && n_faces == 1 && all.len() > 300 {
-        eprintln!(
+        log::debug!(
             "lone n {} iou {iou:.2} corners {:.2} framed {:.2} score {score:.2}",
             all.len(),
             corner_occupancy(g, faces[0], &bx),
@@ -1187,7 +1187,7 @@ pub(crate) fn score_faces(
         return None;
     }
     if dbg && all.len() > 300 {
-        eprintln!(
+        log::debug!(
             "group of {n_faces} n {} size {:.0} {:.0} {:.0} fit {fit:.2} iou {iou:.2} depth {depth_ok:.2} score {score:.2}",
             all.len(),
             size[0],

@@ -142,7 +142,7 @@ pub(crate) fn pair_halves(
         };
         let first = end_clean(chain[0], chain[1]);
         let last = end_clean(chain[k - 1], chain[k - 2]);
-        if std::env::var("DETECT_DEBUG").is_ok() {
+        if log::log_enabled!(log::Level::Debug) {
             let desc: Vec<String> = chain
                 .iter()
                 .map(|&c| {
@@ -151,7 +151,7 @@ pub(crate) fn pair_halves(
                     format!("({:.0},{:.0} {:.0}x{:.0})", q.x, q.y, h.len_mm, h.width_mm)
                 })
                 .collect();
-            eprintln!("halves chain {k} clean {first} {last}: {}", desc.join(" "));
+            log::debug!("halves chain {k} clean {first} {last}: {}", desc.join(" "));
         }
         // Pair off from a clean end (for an even count both ends give the same pairs).
         let order: Vec<usize> = match (k % 2 == 0, first, last) {

@@ -940,9 +940,9 @@ fn split_evidence(
                 }
             }
         }
-        if std::env::var("DETECT_DEBUG").is_ok() {
+        if log::log_enabled!(log::Level::Debug) {
             for (&(a, b), seam) in &between {
-                eprintln!(
+                log::debug!(
                     "split? coarse {} cells {} pair {a}({}) {b}({}) seam {} flap {}",
                     k,
                     gc.cells.len(),
@@ -952,7 +952,7 @@ fn split_evidence(
                     flap_seam(g, &gc.cells, seam, &col[a].normal)
                 );
             }
-            eprintln!(
+            log::debug!(
                 "split? coarse {k} cells {} big {}",
                 gc.cells.len(),
                 big.len()
@@ -1008,7 +1008,7 @@ fn select(
         }
     }
     all.sort_by(|a, b| b.0.score.total_cmp(&a.0.score));
-    let dbg = std::env::var("DETECT_DEBUG").is_ok();
+    let dbg = log::log_enabled!(log::Level::Debug);
     let mut taken = vec![false; g.z.len()];
     let mut out = Vec::new();
     for (c, src) in all {
@@ -1020,7 +1020,7 @@ fn select(
                 let (u, v) = (i as usize % g.w * g.step, i as usize / g.w * g.step);
                 (u0, v0, u1, v1) = (u0.min(u), v0.min(v), u1.max(u), v1.max(v));
             }
-            eprintln!(
+            log::debug!(
                 "select{} {src} score {:.3} faces {} cells {} bbox ({u0}, {v0}, {u1}, {v1}) size {:.0} {:.0} {:.0}",
                 if skip { " SKIP" } else { "" },
                 c.score,
