@@ -105,6 +105,11 @@ impl Mask {
         }
         let mut bb: Option<(u32, u32, u32, u32)> = None;
         for (v, row) in self.data.chunks_exact(w).enumerate() {
+            // Most rows of a full-frame instance mask are empty: a branch-free OR (which
+            // vectorises) rejects them faster than an early-exit search.
+            if !row.iter().fold(false, |a, &b| a | b) {
+                continue;
+            }
             let Some(first) = row.iter().position(|&b| b) else {
                 continue;
             };
