@@ -16,7 +16,7 @@
 //!
 //! Each scene is shot with one of two cameras (RealSense D435-like, f ≈ 615 px; Kinect-like with
 //! Azure Kinect NFOV intrinsics, f ≈ 504 px), rendered by an exact CPU ray caster
-//! ([`render`](crate::render)), textured procedurally (cardboard, tape, labels, print) and passed
+//! (`render`), textured procedurally (cardboard, tape, labels, print) and passed
 //! through a documented depth-sensor model (`noise` module). Ground truth is exact: the visible
 //! mask of a box is the set of pixels whose nearest hit is that box (before noise); `px_count_all`
 //! counts its silhouette rendered alone on a 3× canvas (bop_toolkit's convention), so

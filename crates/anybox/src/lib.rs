@@ -11,7 +11,7 @@
 //! 7. [`pipeline`] — one mask or one frame in, boxes out. [`config`] holds every parameter.
 //!
 //! Around the pipeline: [`runner`] runs it over a BOP dataset or one frame and writes result
-//! records, [`overlay`] draws the boxes, [`bench`] compares the estimator variants.
+//! records, [`overlay`] draws the boxes, [`bench`](mod@bench) compares the estimator variants.
 //!
 //! Evaluation ([`eval`]) and the synthetic generator ([`synth`]) are their own crates,
 //! re-exported here.

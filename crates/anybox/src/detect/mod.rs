@@ -5,18 +5,18 @@
 //! [`Detection`]s (mask, score in 0..1, faces grouped), best first. The paper (§3) gets its
 //! masks from SAM + DINOv2 matching (SAM-6D's ISM); anybox replaces that stage (SPEC §1 stage 2)
 //! with geometry and colour:
-//! 1. [`grid`]: the frame on a grid downsampled by [`DetectConfig::grid_step_px`]; per cell the
+//! 1. `grid`: the frame on a grid downsampled by [`DetectConfig::grid_step_px`]; per cell the
 //!    nearest surface's depth, its 3D point, a normal from guarded-smoothed depth, a smoothed colour;
-//! 2. [`regions`]: union-find over 4-neighbours, cut at depth jumps, normal changes and colour
+//! 2. `regions`: union-find over 4-neighbours, cut at depth jumps, normal changes and colour
 //!    changes — flush faces of touching cartons are separated by their printed edges, tape,
 //!    shadowed gaps and colour differences, which depth alone cannot see; a plane per region;
-//!    tops cut in two by tape or by their own flap seam are rejoined ([`halves`] pairs flap-seam
+//!    tops cut in two by tape or by their own flap seam are rejoined (`halves` pairs flap-seam
 //!    halves off from a carton's edge);
-//! 3. [`boxes`]: support planes (floor, table, shelf boards, walls) removed; up to three mutually
+//! 3. `boxes`: support planes (floor, table, shelf boards, walls) removed; up to three mutually
 //!    perpendicular faces sharing a convex edge grouped into one box; curved (sphere, cylinder),
 //!    irregular, too small and too large segments rejected; a cuboid fitted per group and scored
 //!    by plane fit × silhouette IoU × depth consistency (the paper's filter);
-//! 4. [`blobs`]: the same cuboid fit and score for every connected convex object (depth
+//! 4. `blobs`: the same cuboid fit and score for every connected convex object (depth
 //!    continuity, cut at concave creases and at steps between touching boxes), which finds
 //!    isolated boxes whose faces the grouping could not tie together.
 //!
