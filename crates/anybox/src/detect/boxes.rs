@@ -294,15 +294,6 @@ fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
     let mut next = |n: usize| -> usize { rng.random_range(0..n.max(1)) };
     let cell_area = 1.0 / (g.k.fx * g.k.fy);
     let cos_n = cfg.support_normal_tol_deg.to_radians().cos();
-    let fits = |i: usize, c: &Vector3<f64>, n: &Vector3<f64>| -> bool {
-        let p = v3(&g.p[i]);
-        let z = p.z;
-        if (p - c).dot(n).abs() > cfg.support_tol_factor * plane_tol(cfg, z) {
-            return false;
-        }
-        let cn = v3(&g.n[i]);
-        cn.norm_squared() < 0.5 || cn.dot(n) >= cos_n
-    };
     for _ in 0..cfg.support_ransac_planes {
         if pool.len() < 3 {
             break;
@@ -323,31 +314,16 @@ fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
                 Some((a, n))
             })
             .collect();
-        // The scoring sample, gathered once per plane into contiguous memory (the same test as
-        // `fits`, without re-reading the grid for every hypothesis).
-        let sample: Vec<SampleCell> = pool
+        // The scoring sample, gathered once per plane into contiguous memory rather than
+        // re-read from the grid for every hypothesis.
+        let sample: Vec<PlaneCell> = pool
             .iter()
             .step_by(8)
-            .map(|&i| {
-                let cn = v3(&g.n[i]);
-                SampleCell {
-                    p: v3(&g.p[i]),
-                    n: cn,
-                    tol: cfg.support_tol_factor * plane_tol(cfg, g.p[i][2] as f64),
-                    any_normal: cn.norm_squared() < 0.5,
-                }
-            })
+            .map(|&i| PlaneCell::new(g, i, cfg))
             .collect();
         let counts: Vec<usize> = hyps
             .par_iter()
-            .map(|(a, n)| {
-                sample
-                    .iter()
-                    .filter(|c| {
-                        (c.p - a).dot(n).abs() <= c.tol && (c.any_normal || c.n.dot(n) >= cos_n)
-                    })
-                    .count()
-            })
+            .map(|(a, n)| sample.iter().filter(|c| c.fits(a, n, cos_n)).count())
             .collect();
         let mut best: Option<(usize, Vector3<f64>, Vector3<f64>)> = None;
         for ((a, n), count) in hyps.into_iter().zip(counts) {
@@ -358,7 +334,11 @@ fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
         let Some((_, c, n)) = best else {
             break;
         };
-        let inl: Vec<usize> = pool.iter().copied().filter(|&i| fits(i, &c, &n)).collect();
+        let inl: Vec<usize> = pool
+            .iter()
+            .copied()
+            .filter(|&i| PlaneCell::new(g, i, cfg).fits(&c, &n, cos_n))
+            .collect();
         if inl.len() < 3 {
             break;
         }
@@ -429,13 +409,31 @@ fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
         .collect()
 }
 
-/// A cell of the RANSAC scoring sample: point (mm), normal, plane tolerance (mm, with
-/// `support_tol_factor`), and whether its normal is unknown (then any normal fits).
-struct SampleCell {
+/// A grid cell as RANSAC tests it against a support-plane hypothesis: point (mm), normal,
+/// plane tolerance (mm, with `support_tol_factor`), and whether its normal is unknown.
+struct PlaneCell {
     p: Vector3<f64>,
     n: Vector3<f64>,
     tol: f64,
     any_normal: bool,
+}
+
+impl PlaneCell {
+    fn new(g: &Grid, i: usize, cfg: &DetectConfig) -> Self {
+        let (p, n) = (v3(&g.p[i]), v3(&g.n[i]));
+        PlaneCell {
+            p,
+            n,
+            tol: cfg.support_tol_factor * plane_tol(cfg, p.z),
+            any_normal: n.norm_squared() < 0.5,
+        }
+    }
+
+    /// On the plane through `c` with unit normal `n` (within the tolerance), facing like it
+    /// (within `cos_n`, any normal when unknown).
+    fn fits(&self, c: &Vector3<f64>, n: &Vector3<f64>, cos_n: f64) -> bool {
+        (self.p - c).dot(n).abs() <= self.tol && (self.any_normal || self.n.dot(n) >= cos_n)
+    }
 }
 
 /// Point in a convex polygon (either orientation).
