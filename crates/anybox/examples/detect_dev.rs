@@ -958,9 +958,10 @@ fn main() {
                         n
                     };
                     print!(
-                        " cc {pieces} gpx {} zm {:.0}",
+                        " cc {pieces} gpx {} zm {:.0} cam {}",
                         gtm[k].count(),
-                        b.pose.center_mm.z
+                        b.pose.center_mm.z,
+                        v.camera
                     );
                     // Share of the GT mask on support cells (eaten by the table's band).
                     if let Some(sup) = &sup_px {
@@ -1050,7 +1051,14 @@ fn main() {
             let objs = std::env::var("VERBOSE").ok().and_then(|_| {
                 anybox::detect::segment_labels(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg)
                     .ok()
-                    .map(|l| l[2].clone())
+                    .map(|l| {
+                        // `LEVEL=0|1|2`: surface, colour or object labels (default objects).
+                        let lv = std::env::var("LEVEL")
+                            .ok()
+                            .and_then(|x| x.parse().ok())
+                            .unwrap_or(2usize);
+                        l[lv.min(2)].clone()
+                    })
             });
             score_frame(&dets, &gts, objs.as_deref(), &mut tally);
             if let Some(d) = &dump_dir {
@@ -1103,7 +1111,14 @@ fn main() {
             let objs = std::env::var("VERBOSE").ok().and_then(|_| {
                 anybox::detect::segment_labels(f.rgb.as_ref(), &f.depth, &f.intrinsics, &cfg)
                     .ok()
-                    .map(|l| l[2].clone())
+                    .map(|l| {
+                        // `LEVEL=0|1|2`: surface, colour or object labels (default objects).
+                        let lv = std::env::var("LEVEL")
+                            .ok()
+                            .and_then(|x| x.parse().ok())
+                            .unwrap_or(2usize);
+                        l[lv.min(2)].clone()
+                    })
             });
             score_frame(&dets, &gts, objs.as_deref(), &mut tally);
             if let (Some(d), Some(rgb)) = (&dump_dir, &f.rgb) {
