@@ -3,10 +3,12 @@
 //!
 //! `cargo run --release -p anybox --example detect_dev -- [views-per-config] [dump-dir]`
 //! Env: `SEED=<u64>` (default 7), `ONLY=<layout>`, `NOISE=none`, `DETECT_CFG=<json>`, `LABELS=1`,
-//! `EST=1`, `VERBOSE=1`, `VIEW=<index>` (one view only), `KIND=1` (per detection: exact, part
-//! of one box, bleeding into others, mixed or junk, by precision and recall against the GT
-//! mask it overlaps most). With `EST3D=1`, each GT line also gives `nz` (share of its mask
-//! without depth) and `cc` (pieces of its mask); `DET3D=1` adds, per detection, the 3D
+//! `EST=1`, `VERBOSE=1` (with `LEVEL=0|1|2`: which labels a missed box's cover and purity
+//! come from: surfaces, colour patches, objects; default objects), `VIEW=<index>` (one view
+//! only), `KIND=1` (per detection: exact, part of one box, bleeding into others, mixed or junk,
+//! by precision and recall against the GT mask it overlaps most). With `EST3D=1`, each GT line
+//! also gives `nz` (share of its mask without depth), `cc` (pieces of its mask) and `cam` (the
+//! simulated camera); `DET3D=1` adds, per detection, the 3D
 //! interpenetration with the other estimates (`pin`, `pout`, `pinhi`), the depth penalty and
 //! the estimated and best GT's sorted sizes; `UNION=<r>` lists every pair of estimates
 //! whose axes agree and whose union is at most r times their volume (`pipeline::tiled_union`,
@@ -378,6 +380,16 @@ fn dump_labels(
         }
         let _ = img.save(format!("{}_{name}.png", base.display()));
     }
+}
+
+/// The labels `VERBOSE` reports on, from [`anybox::detect::segment_labels`]: `LEVEL=0|1|2`
+/// for surfaces, colour patches or objects (default objects).
+fn level_labels(mut l: [Vec<u32>; 5]) -> Vec<u32> {
+    let lv = std::env::var("LEVEL")
+        .ok()
+        .and_then(|x| x.parse().ok())
+        .unwrap_or(2usize);
+    std::mem::take(&mut l[lv.min(2)])
 }
 
 /// Prints `log` records to stderr (the detector's diagnostics with `DETECT_DEBUG=1`).
@@ -1051,14 +1063,7 @@ fn main() {
             let objs = std::env::var("VERBOSE").ok().and_then(|_| {
                 anybox::detect::segment_labels(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg)
                     .ok()
-                    .map(|l| {
-                        // `LEVEL=0|1|2`: surface, colour or object labels (default objects).
-                        let lv = std::env::var("LEVEL")
-                            .ok()
-                            .and_then(|x| x.parse().ok())
-                            .unwrap_or(2usize);
-                        l[lv.min(2)].clone()
-                    })
+                    .map(level_labels)
             });
             score_frame(&dets, &gts, objs.as_deref(), &mut tally);
             if let Some(d) = &dump_dir {
@@ -1111,14 +1116,7 @@ fn main() {
             let objs = std::env::var("VERBOSE").ok().and_then(|_| {
                 anybox::detect::segment_labels(f.rgb.as_ref(), &f.depth, &f.intrinsics, &cfg)
                     .ok()
-                    .map(|l| {
-                        // `LEVEL=0|1|2`: surface, colour or object labels (default objects).
-                        let lv = std::env::var("LEVEL")
-                            .ok()
-                            .and_then(|x| x.parse().ok())
-                            .unwrap_or(2usize);
-                        l[lv.min(2)].clone()
-                    })
+                    .map(level_labels)
             });
             score_frame(&dets, &gts, objs.as_deref(), &mut tally);
             if let (Some(d), Some(rgb)) = (&dump_dir, &f.rgb) {

@@ -15,7 +15,7 @@
 use rayon::prelude::*;
 
 use super::grid::Grid;
-use super::regions::{compact_labels, NONE};
+use super::regions::{compact_labels, Dsu, NONE};
 use super::DetectConfig;
 
 /// Hough angle bins over 180°.
@@ -283,50 +283,39 @@ fn cut_patch(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<Vec<u32>> {
             }
         }
     }
-    // Pieces: 4-connected components of what is left.
-    let mut comp = vec![NONE; bw * bh];
-    let mut sizes = Vec::new();
-    let mut stack = Vec::new();
-    for s0 in 0..bw * bh {
-        if !open[s0] || comp[s0] != NONE {
+    // Pieces: 4-connected components of what is left, numbered in scan order.
+    let mut dsu = Dsu::new(bw * bh);
+    for v in 0..bh {
+        for u in 0..bw {
+            let x = v * bw + u;
+            if !open[x] {
+                continue;
+            }
+            if u + 1 < bw && open[x + 1] {
+                dsu.union(x as u32, (x + 1) as u32);
+            }
+            if v + 1 < bh && open[x + bw] {
+                dsu.union(x as u32, (x + bw) as u32);
+            }
+        }
+    }
+    let min_piece = cfg.min_region_cells.max(3);
+    let mut piece = vec![NONE; bw * bh];
+    let mut piece_of_root = vec![NONE; bw * bh];
+    let mut n_pieces = 0u32;
+    for x in 0..bw * bh {
+        if !open[x] {
             continue;
         }
-        let id = sizes.len() as u32;
-        comp[s0] = id;
-        stack.push(s0);
-        let mut size = 0usize;
-        while let Some(x) = stack.pop() {
-            size += 1;
-            let (u, v) = (x % bw, x / bw);
-            let mut go = |y: usize| {
-                if open[y] && comp[y] == NONE {
-                    comp[y] = id;
-                    stack.push(y);
-                }
-            };
-            if u > 0 {
-                go(x - 1);
-            }
-            if u + 1 < bw {
-                go(x + 1);
-            }
-            if v > 0 {
-                go(x - bw);
-            }
-            if v + 1 < bh {
-                go(x + bw);
-            }
+        let r = dsu.find(x as u32) as usize;
+        if dsu.size[r] < min_piece {
+            continue;
         }
-        sizes.push(size);
-    }
-    let min_piece = cfg.min_region_cells.max(3) as usize;
-    let mut piece_of = vec![NONE; sizes.len()];
-    let mut n_pieces = 0u32;
-    for (id, &s) in sizes.iter().enumerate() {
-        if s >= min_piece {
-            piece_of[id] = n_pieces;
+        if piece_of_root[r] == NONE {
+            piece_of_root[r] = n_pieces;
             n_pieces += 1;
         }
+        piece[x] = piece_of_root[r];
     }
     if n_pieces < 2 {
         return None;
@@ -336,10 +325,7 @@ fn cut_patch(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<Vec<u32>> {
             .iter()
             .map(|&i| {
                 let (u, v) = (i as usize % w - u0, i as usize / w - v0);
-                match comp[v * bw + u] {
-                    NONE => NONE,
-                    id => piece_of[id as usize],
-                }
+                piece[v * bw + u]
             })
             .collect(),
     )

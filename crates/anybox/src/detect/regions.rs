@@ -57,19 +57,21 @@ pub(crate) fn plane_tol(cfg: &DetectConfig, z_mm: f64) -> f64 {
     cfg.plane_tol_abs_mm + cfg.plane_tol_quad_mm * zm * zm
 }
 
-struct Dsu {
+/// Union-find over cell indices, by size with path halving.
+pub(crate) struct Dsu {
     parent: Vec<u32>,
-    size: Vec<u32>,
+    /// Cells in the set, valid at roots.
+    pub(crate) size: Vec<u32>,
 }
 
 impl Dsu {
-    fn new(n: usize) -> Self {
+    pub(crate) fn new(n: usize) -> Self {
         Self {
             parent: (0..n as u32).collect(),
             size: vec![1; n],
         }
     }
-    fn find(&mut self, mut x: u32) -> u32 {
+    pub(crate) fn find(&mut self, mut x: u32) -> u32 {
         while self.parent[x as usize] != x {
             let p = self.parent[x as usize];
             self.parent[x as usize] = self.parent[p as usize];
@@ -77,7 +79,7 @@ impl Dsu {
         }
         x
     }
-    fn union(&mut self, a: u32, b: u32) {
+    pub(crate) fn union(&mut self, a: u32, b: u32) {
         let (ra, rb) = (self.find(a), self.find(b));
         if ra == rb {
             return;
