@@ -299,24 +299,7 @@ fn cut_patch(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<Vec<u32>> {
             }
         }
     }
-    let min_piece = cfg.min_region_cells.max(3);
-    let mut piece = vec![NONE; bw * bh];
-    let mut piece_of_root = vec![NONE; bw * bh];
-    let mut n_pieces = 0u32;
-    for x in 0..bw * bh {
-        if !open[x] {
-            continue;
-        }
-        let r = dsu.find(x as u32) as usize;
-        if dsu.size[r] < min_piece {
-            continue;
-        }
-        if piece_of_root[r] == NONE {
-            piece_of_root[r] = n_pieces;
-            n_pieces += 1;
-        }
-        piece[x] = piece_of_root[r];
-    }
+    let (piece, n_pieces) = dsu.label_large(cfg.min_region_cells.max(3), |x| open[x]);
     if n_pieces < 2 {
         return None;
     }

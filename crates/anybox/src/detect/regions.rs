@@ -61,7 +61,7 @@ pub(crate) fn plane_tol(cfg: &DetectConfig, z_mm: f64) -> f64 {
 pub(crate) struct Dsu {
     parent: Vec<u32>,
     /// Cells in the set, valid at roots.
-    pub(crate) size: Vec<u32>,
+    size: Vec<u32>,
 }
 
 impl Dsu {
@@ -79,6 +79,35 @@ impl Dsu {
         }
         x
     }
+    /// Labels of the sets with at least `min_size` members, numbered 0, 1, … in scan order of
+    /// their first element (deterministic); `NONE` for the rest and for elements not `kept`.
+    /// Returns the labels and how many there are.
+    pub(crate) fn label_large(
+        &mut self,
+        min_size: u32,
+        kept: impl Fn(usize) -> bool,
+    ) -> (Vec<u32>, u32) {
+        let n = self.parent.len();
+        let mut root_label = vec![NONE; n];
+        let mut labels = vec![NONE; n];
+        let mut next = 0u32;
+        for i in 0..n {
+            if !kept(i) {
+                continue;
+            }
+            let root = self.find(i as u32) as usize;
+            if self.size[root] < min_size {
+                continue;
+            }
+            if root_label[root] == NONE {
+                root_label[root] = next;
+                next += 1;
+            }
+            labels[i] = root_label[root];
+        }
+        (labels, next)
+    }
+
     pub(crate) fn union(&mut self, a: u32, b: u32) {
         let (ra, rb) = (self.find(a), self.find(b));
         if ra == rb {
@@ -270,25 +299,8 @@ pub(crate) fn segment(
             }
         }
     }
-    // Compact labels of big-enough components, in scan order (deterministic).
-    let min_cells = cfg.min_region_cells.max(3);
-    let mut root_label = vec![NONE; w * h];
-    let mut labels = vec![NONE; w * h];
-    let mut n_regions = 0u32;
-    for i in 0..w * h {
-        if g.z[i] <= 0.0 || out(i) {
-            continue;
-        }
-        let root = dsu.find(i as u32) as usize;
-        if dsu.size[root] < min_cells {
-            continue;
-        }
-        if root_label[root] == NONE {
-            root_label[root] = n_regions;
-            n_regions += 1;
-        }
-        labels[i] = root_label[root];
-    }
+    let (labels, n_regions) =
+        dsu.label_large(cfg.min_region_cells.max(3), |i| g.z[i] > 0.0 && !out(i));
     let regions = fit_regions(g, &labels, n_regions as usize, cfg);
     (labels, regions)
 }
