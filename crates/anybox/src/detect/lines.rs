@@ -247,7 +247,8 @@ fn cut_patch(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<Vec<u32>> {
             .map(|&j| line.t(seam[j]))
             .collect();
         along.sort_by(f32::total_cmp);
-        // Runs with gaps up to `gap` cells, dense enough, long enough.
+        // Runs with gaps up to `gap` cells, dense enough, long enough: at least `min_cells`
+        // along the line too (a blob of print has many cells but no length).
         let mut start = 0;
         for e in 1..=along.len() {
             if e < along.len() && along[e] - along[e - 1] <= gap + 1.0 {
@@ -255,7 +256,8 @@ fn cut_patch(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<Vec<u32>> {
             }
             let run = &along[start..e];
             let span = run[run.len() - 1] - run[0] + 1.0;
-            if run.len() >= min_cells && run.len() as f64 >= cfg.seam_line_density * span as f64 {
+            let long = run.len() >= min_cells && span >= min_cells as f32;
+            if long && run.len() as f64 >= cfg.seam_line_density * span as f64 {
                 segments.push(Segment {
                     line,
                     t0: run[0] - gap,
@@ -414,6 +416,25 @@ mod tests {
         let before = labels.clone();
         let n = cut_along_seam_lines(&g, &mut labels, 1, &DetectConfig::default());
         assert_eq!(n, 1);
+        assert_eq!(labels, before);
+    }
+
+    #[test]
+    fn a_blob_of_print_across_a_narrow_patch_does_not_cut() {
+        // A 14-row band with a 6 × 8 blob of seam cells in it (a printed logo): the blob's
+        // left rim alone is 8 cells in a column, with 4 more beside it, but no line is 10
+        // cells long.
+        let (g, mut labels) = leaked(|u, v| (28..34).contains(&u) && (17..25).contains(&v));
+        for (i, l) in labels.iter_mut().enumerate() {
+            if !(13..27).contains(&(i / W)) {
+                *l = NONE;
+            }
+        }
+        let before = labels.clone();
+        assert_eq!(
+            cut_along_seam_lines(&g, &mut labels, 1, &DetectConfig::default()),
+            1
+        );
         assert_eq!(labels, before);
     }
 
