@@ -42,7 +42,7 @@ pub(crate) fn cut_along_seam_lines(
         }
     }
     let min_piece = cfg.min_region_cells.max(3) as usize;
-    let cuts: Vec<Option<Vec<u32>>> = cells
+    let cuts: Vec<Option<(Vec<u32>, u32)>> = cells
         .par_iter()
         .map(|c| {
             if c.len() < 2 * min_piece {
@@ -58,12 +58,9 @@ pub(crate) fn cut_along_seam_lines(
     // Piece k > 0 of a cut patch gets a fresh label; piece 0 keeps the patch's.
     let mut next = n as u32;
     for (l, cut) in cuts.iter().enumerate() {
-        let Some(piece) = cut else { continue };
-        let n_pieces = piece
-            .iter()
-            .filter(|&&p| p != NONE)
-            .max()
-            .map_or(0, |&m| m + 1);
+        let Some((piece, n_pieces)) = cut else {
+            continue;
+        };
         for (&i, &p) in cells[l].iter().zip(piece) {
             labels[i as usize] = match p {
                 NONE => NONE,
@@ -71,7 +68,7 @@ pub(crate) fn cut_along_seam_lines(
                 p => next + p - 1,
             };
         }
-        next += n_pieces.saturating_sub(1);
+        next += n_pieces - 1;
     }
     compact_labels(labels, next as usize, |l| l)
 }
@@ -141,8 +138,9 @@ impl Segment {
 }
 
 /// Per cell of the patch `cells`: the piece it falls in after cutting along the seam lines
-/// around it (`NONE` for cut cells and crumbs), or `None` when it stays whole.
-fn cut_patch(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<Vec<u32>> {
+/// around it (`NONE` for cut cells and crumbs), and the number of pieces (at least 2); `None`
+/// when it stays whole.
+fn cut_patch(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<(Vec<u32>, u32)> {
     let w = g.w;
     let (mut u0, mut v0, mut u1, mut v1) = (usize::MAX, usize::MAX, 0usize, 0usize);
     for &i in cells {
@@ -305,15 +303,11 @@ fn cut_patch(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<Vec<u32>> {
     if n_pieces < 2 {
         return None;
     }
-    Some(
-        cells
-            .iter()
-            .map(|&i| {
-                let (u, v) = (i as usize % w - u0, i as usize / w - v0);
-                piece[v * bw + u]
-            })
-            .collect(),
-    )
+    let per_cell = cells
+        .iter()
+        .map(|&i| piece[(i as usize / w - v0) * bw + i as usize % w - u0])
+        .collect();
+    Some((per_cell, n_pieces))
 }
 
 #[cfg(test)]
@@ -353,6 +347,13 @@ mod tests {
             seam: s,
         };
         (g, labels)
+    }
+
+    /// Cutting leaves the single patch of `labels` as it is.
+    fn assert_uncut(g: &Grid, mut labels: Vec<u32>, cfg: &DetectConfig) {
+        let before = labels.clone();
+        assert_eq!(cut_along_seam_lines(g, &mut labels, 1, cfg), 1);
+        assert_eq!(labels, before);
     }
 
     /// Cells that kept a label, per label, and the labels on either side of `u = at`.
@@ -412,11 +413,8 @@ mod tests {
             x = (x ^ (x >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
             (x ^ (x >> 31)) % 100 < 6
         };
-        let (g, mut labels) = leaked(|u, v| noise(u, v) || (v == 20 && (10..18).contains(&u)));
-        let before = labels.clone();
-        let n = cut_along_seam_lines(&g, &mut labels, 1, &DetectConfig::default());
-        assert_eq!(n, 1);
-        assert_eq!(labels, before);
+        let (g, labels) = leaked(|u, v| noise(u, v) || (v == 20 && (10..18).contains(&u)));
+        assert_uncut(&g, labels, &DetectConfig::default());
     }
 
     #[test]
@@ -430,37 +428,25 @@ mod tests {
                 *l = NONE;
             }
         }
-        let before = labels.clone();
-        assert_eq!(
-            cut_along_seam_lines(&g, &mut labels, 1, &DetectConfig::default()),
-            1
-        );
-        assert_eq!(labels, before);
+        assert_uncut(&g, labels, &DetectConfig::default());
     }
 
     #[test]
     fn a_line_that_does_not_cross_the_patch_leaves_it_whole() {
         // A full-density line 20 cells long from the left rim: it cannot separate anything,
         // even carried on `seam_line_gap_cells` past its end.
-        let (g, mut labels) = leaked(|u, v| v == 20 && u < 20);
-        let before = labels.clone();
-        assert_eq!(
-            cut_along_seam_lines(&g, &mut labels, 1, &DetectConfig::default()),
-            1
-        );
-        assert_eq!(labels, before);
+        let (g, labels) = leaked(|u, v| v == 20 && u < 20);
+        assert_uncut(&g, labels, &DetectConfig::default());
     }
 
     #[test]
     fn disabled_with_zero_min_cells() {
-        let (g, mut labels) = leaked(|u, v| u == 30 && v % 5 < 3);
-        let before = labels.clone();
+        let (g, labels) = leaked(|u, v| u == 30 && v % 5 < 3);
         let cfg = DetectConfig {
             seam_line_min_cells: 0,
             ..DetectConfig::default()
         };
-        assert_eq!(cut_along_seam_lines(&g, &mut labels, 1, &cfg), 1);
-        assert_eq!(labels, before);
+        assert_uncut(&g, labels, &cfg);
     }
 
     proptest! {

@@ -894,31 +894,39 @@ fn background_seen_through_a_frame_gives_no_detection() {
     assert!(!premise.is_empty(), "premise");
 }
 
+/// View 0 of scene `scene` of a generated pallet dataset (realistic noise).
+fn pallet_view(seed: u64, scenes: u32, scene: u32) -> anybox_synth::SynthView {
+    let sc = SynthConfig {
+        layout: Layout::Pallet,
+        scenes,
+        views: 1,
+        seed,
+        noise: NoiseModel::Realistic,
+        ..SynthConfig::default()
+    };
+    generate_view(&sc, scene, 0)
+}
+
+/// Per ground-truth box of `v`, the best mask IoU of any detection with its visible mask.
+fn best_mask_ious(v: &anybox_synth::SynthView, cfg: &DetectConfig) -> Vec<f64> {
+    let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
+    v.boxes
+        .iter()
+        .map(|b| {
+            dets.iter()
+                .map(|d| iou(&d.mask, &b.mask_visib))
+                .fold(0.0, f64::max)
+        })
+        .collect()
+}
+
 #[test]
 fn flush_cartons_split_at_an_aliased_crease() {
     // Generated pallet scene (seed 2026, scene 1): two cartons of one colour side by side on
     // the top layer, tops and fronts flush. The creases between them are 2.5 mm bands that
     // alias into dashed lines; through the gaps the two merged into one detection.
-    let sc = SynthConfig {
-        layout: Layout::Pallet,
-        scenes: 30,
-        views: 1,
-        seed: 2026,
-        noise: NoiseModel::Realistic,
-        ..SynthConfig::default()
-    };
-    let v = generate_view(&sc, 1, 0);
-    let best = |cfg: &DetectConfig| {
-        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
-        v.boxes
-            .iter()
-            .map(|b| {
-                dets.iter()
-                    .map(|d| iou(&d.mask, &b.mask_visib))
-                    .fold(0.0, f64::max)
-            })
-            .collect::<Vec<f64>>()
-    };
+    let v = pallet_view(2026, 30, 1);
+    let best = |cfg: &DetectConfig| best_mask_ious(&v, cfg);
     let closed = best(&DetectConfig::default());
     // Either of the two bridges the gaps: closing short gaps in seam lines, or cutting
     // patches along whole seam lines (`lines`).
@@ -1073,26 +1081,12 @@ fn a_stack_of_flush_cartons_splits_along_its_dashed_joints() {
     // flush, seen from 1–1.3 m. The joints between them come out as dashed seam lines that
     // stop short of the stack's rim; region growing ran through the gaps and merged five
     // front faces into one patch, which no carton's detection could come from.
-    let sc = SynthConfig {
-        layout: Layout::Pallet,
-        scenes: 24,
-        views: 1,
-        seed: 11,
-        noise: NoiseModel::Realistic,
-        ..SynthConfig::default()
-    };
-    let v = generate_view(&sc, 18, 0);
+    let v = pallet_view(11, 24, 18);
     let found = |cfg: &DetectConfig| {
-        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
         v.boxes
             .iter()
-            .map(|b| {
-                let best = dets
-                    .iter()
-                    .map(|d| iou(&d.mask, &b.mask_visib))
-                    .fold(0.0, f64::max);
-                (b.visib_fract >= 0.5, best)
-            })
+            .map(|b| b.visib_fract >= 0.5)
+            .zip(best_mask_ious(&v, cfg))
             .collect::<Vec<_>>()
     };
     let cut = found(&DetectConfig::default());
