@@ -491,6 +491,10 @@ pub struct LayerMember {
     pub pose: OrientedBox,
     /// Source of each axis' extent.
     pub sources: [HiddenSource; 3],
+    /// Whether its extents are offered to the others: false for an alternative reading of
+    /// boxes that other members already stand for, which takes from its neighbours but must
+    /// not change their estimates.
+    pub shares: bool,
 }
 
 /// Rule 3: boxes with coplanar visible faces share the extent along that face's normal.
@@ -512,7 +516,7 @@ pub fn share_layer_heights(
             let face = m.pose.center_mm.dot(&u) - 0.5 * m.pose.size_mm[a];
             let mut vals = Vec::new();
             for (j, o) in members.iter().enumerate() {
-                if i == j {
+                if i == j || !o.shares {
                     continue;
                 }
                 // The axis of the neighbour most parallel to u.
@@ -594,20 +598,30 @@ mod tests {
             LayerMember {
                 pose: a,
                 sources: hid,
+                shares: true,
             },
             LayerMember {
                 pose: b,
                 sources: obs,
+                shares: true,
             },
             LayerMember {
                 pose: c,
                 sources: obs,
+                shares: true,
             },
         ];
         let up = share_layer_heights(&members, &cfg);
         let s = up[0].expect("a takes its neighbour's height");
         assert_eq!(s, Vector3::new(300.0, 200.0, 220.0));
         assert!(up[1].is_none() && up[2].is_none());
+        // A neighbour that does not share gives nothing; one that only takes still takes.
+        let mut quiet = members;
+        quiet[1].shares = false;
+        assert!(share_layer_heights(&quiet, &cfg)[0].is_none());
+        let mut taker = members;
+        taker[0].shares = false;
+        assert_eq!(share_layer_heights(&taker, &cfg)[0], Some(s));
     }
 
     #[test]

@@ -280,6 +280,20 @@ pub fn estimate_frame(
     masks: &[Mask],
     cfg: &Config,
 ) -> Vec<Result<BoxEstimate, EstimateError>> {
+    estimate_frame_with_alternatives(depth, intrinsics, masks, &[], cfg)
+}
+
+/// [`estimate_frame`] where some masks are alternative readings (`alternative[i]`, missing
+/// entries false; e.g. [`crate::detect::Detection::alternative`]): they take hidden extents
+/// from their layer's neighbours but give none, so the other masks' estimates are the same
+/// as without them.
+pub fn estimate_frame_with_alternatives(
+    depth: &DepthMap,
+    intrinsics: &Intrinsics,
+    masks: &[Mask],
+    alternative: &[bool],
+    cfg: &Config,
+) -> Vec<Result<BoxEstimate, EstimateError>> {
     let mut stages: Vec<Result<Stage, EstimateError>> = masks
         .par_iter()
         .map(|m| stage_one(depth, intrinsics, m, cfg))
@@ -289,10 +303,11 @@ pub fn estimate_frame(
         let idx: Vec<usize> = (0..stages.len()).filter(|&i| stages[i].is_ok()).collect();
         let members: Vec<LayerMember> = idx
             .iter()
-            .filter_map(|&i| stages[i].as_ref().ok())
-            .map(|s| LayerMember {
+            .filter_map(|&i| Some((i, stages[i].as_ref().ok()?)))
+            .map(|(i, s)| LayerMember {
                 pose: s.pose,
                 sources: s.sources,
+                shares: !alternative.get(i).copied().unwrap_or(false),
             })
             .collect();
         let updates = share_layer_heights(&members, &cfg.context);

@@ -101,17 +101,40 @@ pub fn run_frame(
     masks: &[InstanceMask],
     config: &Config,
 ) -> RunOutput {
+    run_frame_with_alternatives(depth, intrinsics, masks, &[], config)
+}
+
+/// [`run_frame`] where `alternative[i]` marks alternative readings (see
+/// [`crate::pipeline::estimate_frame_with_alternatives`]); their records carry
+/// `"alternative": true`.
+fn run_frame_with_alternatives(
+    depth: &DepthMap,
+    intrinsics: &Intrinsics,
+    masks: &[InstanceMask],
+    alternative: &[bool],
+    config: &Config,
+) -> RunOutput {
     let plain: Vec<Mask> = masks.iter().map(|m| m.mask.clone()).collect();
     let start = Instant::now();
-    let results = estimate_frame(depth, intrinsics, &plain, config);
+    let results = crate::pipeline::estimate_frame_with_alternatives(
+        depth,
+        intrinsics,
+        &plain,
+        alternative,
+        config,
+    );
     let time_s = start.elapsed().as_secs_f64();
     let mut out = RunOutput::default();
-    for (m, r) in masks.iter().zip(results) {
+    for (i, (m, r)) in masks.iter().zip(results).enumerate() {
         match r {
             Ok(est) => {
                 let mut rec = to_record(0, 0, &est, time_s, None, None);
                 rec.score *= m.score;
                 rec.extra.insert("mask".into(), serde_json::json!(m.name));
+                if alternative.get(i).copied().unwrap_or(false) {
+                    rec.extra
+                        .insert("alternative".into(), serde_json::json!(true));
+                }
                 out.estimates.push(rec);
             }
             Err(e) => out.failures.push(InstanceFailure {
@@ -128,10 +151,11 @@ pub fn run_frame(
 
 /// One frame with the built-in detector (`--masks detect`, dataset and single-frame mode;
 /// records carry scene and image id 0): detection, the
-/// estimator on every detection ([`Config::for_detected_masks`]), then the alternative
-/// readings of split cartons ([`crate::pipeline::tiled_unions`]). Alternative records carry
-/// `"alternative": true` and `"parts"` (the two detections' mask names) in `extra`; drop
-/// them where one reading per box is wanted.
+/// estimator on every detection ([`Config::for_detected_masks`]), then the tiled unions of
+/// split cartons ([`crate::pipeline::tiled_unions`]). Alternative readings carry
+/// `"alternative": true` in `extra`: the detector's ([`crate::detect::Detection::alternative`])
+/// and the unions, which also carry `"parts"` (the two detections' mask names); drop them
+/// where one reading per box is wanted.
 pub fn run_detected_frame(
     rgb: Option<&anybox_io::RgbImage>,
     depth: &DepthMap,
@@ -139,11 +163,23 @@ pub fn run_detected_frame(
     config: &Config,
 ) -> Result<RunOutput, crate::segmentation::SegmentationError> {
     let masks = crate::segmentation::detect_masks(rgb, depth, intrinsics, &config.detect)?;
-    let mut out = run_frame(depth, intrinsics, &masks, &config.for_detected_masks());
+    let alternative: Vec<bool> = masks
+        .iter()
+        .map(|m| m.name.starts_with(crate::segmentation::ALTERNATIVE_PREFIX))
+        .collect();
+    let mut out = run_frame_with_alternatives(
+        depth,
+        intrinsics,
+        &masks,
+        &alternative,
+        &config.for_detected_masks(),
+    );
+    // Unions of the detections only: an alternative overlaps the detections it replaces.
     let (idx, scored): (Vec<usize>, Vec<(anybox_geom::OrientedBox, f64)>) = out
         .estimates
         .iter()
         .enumerate()
+        .filter(|(_, r)| r.extra.get("alternative").is_none())
         .filter_map(|(i, r)| r.pose().ok().map(|p| (i, (p, r.score))))
         .unzip();
     for u in crate::pipeline::tiled_unions(&scored, &config.detect) {
@@ -306,10 +342,11 @@ mod tests {
             .estimates
             .iter()
             .filter(|r| r.extra.get("alternative") == Some(&serde_json::json!(true)))
+            .filter(|r| r.extra.contains_key("parts"))
             .collect();
         assert!(
             !alts.is_empty(),
-            "no alternative on a frame with a split carton"
+            "no tiled union on a frame with a split carton"
         );
         let by_name = |n: &serde_json::Value| {
             out.estimates
@@ -342,19 +379,35 @@ mod tests {
             improved |= best(&u) > 0.5 && parts_best <= 0.5;
         }
         assert!(improved, "the union finds the carton its halves miss");
-        // Switched off: primary records only.
+        // Switched off (unions and the detector's alternatives): the same primary records,
+        // estimated alike (alternatives share no extents with their neighbours).
         let mut off = config.clone();
         off.detect.tiled_union_score_factor = 0.0;
+        off.detect.alternatives_max = 0;
         let out0 = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &off).unwrap();
         assert!(out0
             .estimates
             .iter()
             .all(|r| r.extra.get("alternative").is_none()));
-        let primary = out
+        let key = |r: &EstimateRecord| (r.extra.get("mask").cloned(), r.r, r.t, r.size, r.score);
+        let primary: Vec<_> = out
             .estimates
             .iter()
             .filter(|r| r.extra.get("alternative").is_none())
-            .count();
-        assert_eq!(out0.estimates.len(), primary);
+            .map(key)
+            .collect();
+        assert_eq!(out0.estimates.iter().map(key).collect::<Vec<_>>(), primary);
+        // The detector's alternatives are flagged, and named apart from the detections.
+        let detector_alts: Vec<&EstimateRecord> = out
+            .estimates
+            .iter()
+            .filter(|r| !r.extra.contains_key("parts"))
+            .filter(|r| r.extra.get("alternative").is_some())
+            .collect();
+        assert!(!detector_alts.is_empty(), "no detector alternative here");
+        for r in detector_alts {
+            let name = r.extra["mask"].as_str().expect("a mask name");
+            assert!(name.starts_with(crate::segmentation::ALTERNATIVE_PREFIX));
+        }
     }
 }

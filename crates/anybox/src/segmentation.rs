@@ -151,7 +151,13 @@ pub fn load_masks(
     Ok(out)
 }
 
-/// Runs the built-in zero-shot detector ([`crate::detect::detect_boxes`]) on one frame.
+/// How [`detect_masks`] names the masks of alternative readings
+/// ([`crate::detect::Detection::alternative`]): this, then the detection's index.
+pub const ALTERNATIVE_PREFIX: &str = "alternative detection ";
+
+/// Runs the built-in zero-shot detector ([`crate::detect::detect_boxes`]) on one frame: one
+/// mask per detection, named `detection <i> (<n> faces)`, or with [`ALTERNATIVE_PREFIX`] for
+/// alternative readings.
 pub fn detect_masks(
     rgb: Option<&anybox_io::RgbImage>,
     depth: &anybox_io::DepthMap,
@@ -165,7 +171,11 @@ pub fn detect_masks(
         .map(|(i, d)| InstanceMask {
             mask: d.mask,
             score: d.score,
-            name: format!("detection {i} ({} faces)", d.n_faces),
+            name: if d.alternative {
+                format!("{ALTERNATIVE_PREFIX}{i} ({} faces)", d.n_faces)
+            } else {
+                format!("detection {i} ({} faces)", d.n_faces)
+            },
         })
         .collect())
 }

@@ -26,7 +26,9 @@
 //! one-face candidate's mask also takes in the side faces seen as thin strips past its edges
 //! ([`DetectConfig::side_strip_max_mm`]). Output masks keep, per pixel, only the front
 //! surface of their grid cell; output scores are the box-likeness times an evidence factor
-//! that grows with the mask's size ([`DetectConfig::evidence_half_pixels`]).
+//! that grows with the mask's size ([`DetectConfig::evidence_half_pixels`]). A few candidates
+//! that lost a split decision come back as alternative readings, flagged and scored low
+//! ([`DetectConfig::alternatives_max`]).
 //!
 //! Every threshold is a documented field of [`DetectConfig`] (`Config::detect`). The detector is
 //! deterministic: the same input and config give the same detections in the same order.
@@ -355,6 +357,27 @@ pub struct DetectConfig {
     /// over a few cells at every fold, so small boxes agree less). Default 0.5: against 0.6,
     /// bench AP@0.5 +0.03 to +0.06 on seed 11, within 0.005 on seeds 7 and 2026.
     pub blob_min_agree: f64,
+    /// Alternative readings: up to this many candidates per frame that lost a split decision
+    /// (a coarse candidate cut into cartons by a seam, or the colour patches of one kept
+    /// whole) are returned as well, flagged [`Detection::alternative`] and scored
+    /// `alternative_score_factor` times their own score: where the chosen reading of a cluster
+    /// is wrong (two cartons merged, one carton in pieces) the other may be right. Each costs
+    /// one more estimate. 0 disables. Default 2 (bench, 24 views, AP@0.5 against 0, seeds
+    /// 2026 / 7 / 11: pallets +0.018 / +0.004 / +0.010, tables +0.003 to +0.025, shelves
+    /// +0.008 / +0.005 / 0, none lower; 4 gained up to +0.012 more on tables of seed 2026 only,
+    /// at about 30 ms more per shelf frame; candidates dropped for overlapping a better one
+    /// as well: no more AP, 50 % more alternatives).
+    pub alternatives_max: u32,
+    /// See `alternatives_max`. Default 0.1: most alternatives then rank below every detection
+    /// (0.3 and 0.5 ranked them above weak true detections, which then lost their match:
+    /// AP@0.25 fell by up to 0.06).
+    pub alternative_score_factor: f64,
+    /// Alternatives have at least this many faces. Default 2 (one-face alternatives, about a
+    /// third of them, added no AP).
+    pub alternative_min_faces: u8,
+    /// An alternative differs from every detection and every other alternative: grid-cell
+    /// IoU below this. Default 0.7.
+    pub alternative_max_iou: f64,
 }
 
 impl Default for DetectConfig {
@@ -447,6 +470,10 @@ impl Default for DetectConfig {
             blob_min_face_fraction: 0.05,
             blob_min_fit: 0.85,
             blob_min_agree: 0.5,
+            alternatives_max: 2,
+            alternative_score_factor: 0.1,
+            alternative_min_faces: 2,
+            alternative_max_iou: 0.7,
         }
     }
 }
@@ -462,6 +489,9 @@ pub struct Detection {
     pub score: f64,
     /// Visible faces grouped into this box (1..=3).
     pub n_faces: u8,
+    /// An alternative reading ([`DetectConfig::alternatives_max`]): it overlaps detections
+    /// that won the selection, and at most one of them is the right reading.
+    pub alternative: bool,
 }
 
 /// Why a frame could not be processed.
@@ -524,14 +554,20 @@ pub fn detect_boxes(
     let (w, h) = (depth.width, depth.height);
     let g = grid::Grid::build(rgb, depth, intrinsics, cfg);
     let p = pool(&g, rgb.is_some(), cfg);
-    let chosen = select(&g, p.objects, p.geo, p.col, cfg);
+    let (chosen, alts) = select(&g, p.objects, p.geo, p.col, cfg);
     // Support cells, and cells next to a support facing like it, are never filled in: at a
     // box's foot they lie inside its silhouette at about its depth, and the estimator would
     // take them for the box. (The box's own foot, cut off its object, faces sideways.)
     let mut claimed: Vec<bool> = (0..g.z.len())
         .map(|i| p.on_support[i] || (p.off[i] && flat_near_support(&g, &p.planes, i, cfg)))
         .collect();
+    let base_claims = claimed.clone();
     let cands = boxes::fill(&g, chosen, &mut claimed, cfg);
+    // Each alternative is filled on its own: it may take what the detections took.
+    let alt_cands: Vec<boxes::Candidate> = alts
+        .into_par_iter()
+        .flat_map(|a| boxes::fill(&g, vec![a], &mut base_claims.clone(), cfg))
+        .collect();
     let (fw, fh) = (w as usize, h as usize);
     let area = (fw * fh) as f64 / (640.0 * 480.0);
     let one_face_min = cfg.one_face_min_pixels as f64 * area;
@@ -539,17 +575,25 @@ pub fn detect_boxes(
     // Frame-sized masks, built in parallel (the order is kept).
     let mut out: Vec<Detection> = cands
         .into_par_iter()
-        .filter_map(|c| {
+        .map(|c| (c, false))
+        .chain(alt_cands.into_par_iter().map(|c| (c, true)))
+        .filter_map(|(c, alternative)| {
             let mut mask = cells_to_mask(&g, depth, &c.cells, Some(cfg));
             let px = mask.count() as f64;
             if c.n_faces == 1 && px < one_face_min {
                 return None;
             }
             paint_cells(&mut mask, &g, depth, &c.strip, Some(cfg));
+            let factor = if alternative {
+                cfg.alternative_score_factor
+            } else {
+                1.0
+            };
             Some(Detection {
                 mask,
-                score: c.score * evidence(px, half),
+                score: c.score * evidence(px, half) * factor,
                 n_faces: c.n_faces,
+                alternative,
             })
         })
         .collect();
@@ -704,6 +748,7 @@ pub fn candidate_pool(
         mask: cells_to_mask(&g, depth, &c.cells, None),
         score: c.score,
         n_faces: c.n_faces,
+        alternative: false,
     };
     let mut out = Vec::new();
     for (src, list) in [('o', &p.objects), ('s', &p.geo), ('p', &p.col)] {
@@ -1003,7 +1048,7 @@ fn select(
     geo: Vec<boxes::Raw>,
     col: Vec<boxes::Raw>,
     cfg: &DetectConfig,
-) -> Vec<boxes::Raw> {
+) -> (Vec<boxes::Raw>, Vec<boxes::Raw>) {
     let (obj_split, _, _) = split_evidence(g, &objects, &col, cfg);
     let (geo_split, inside, free) = split_evidence(g, &geo, &col, cfg);
     let mut take_col = vec![false; col.len()];
@@ -1018,19 +1063,28 @@ fn select(
         take_col[k] = true;
     }
     let mut all: Vec<(boxes::Raw, char)> = Vec::new();
+    // The other side of each split decision (a coarse candidate split into cartons, or the
+    // colour patches of one left whole), kept for alternative readings.
+    let mut lost: Vec<boxes::Raw> = Vec::new();
     for (k, c) in objects.into_iter().enumerate() {
         if !obj_split[k] {
             all.push((c, 'o'));
+        } else {
+            lost.push(c);
         }
     }
     for (k, c) in geo.into_iter().enumerate() {
         if !geo_split[k] {
             all.push((c, 's'));
+        } else {
+            lost.push(c);
         }
     }
     for (k, c) in col.into_iter().enumerate() {
         if take_col[k] {
             all.push((c, 'p'));
+        } else {
+            lost.push(c);
         }
     }
     all.sort_by(|a, b| b.0.score.total_cmp(&a.0.score));
@@ -1063,6 +1117,62 @@ fn select(
         for &i in &c.cells {
             taken[i as usize] = true;
         }
+        out.push(c);
+    }
+    let alts = alternatives(g, &out, lost, cfg);
+    (out, alts)
+}
+
+/// The alternative readings among the candidates that lost a split decision (see
+/// [`DetectConfig::alternatives_max`]): best first, with `alternative_min_faces`, each
+/// differing from every chosen candidate and every earlier alternative by grid-cell IoU below
+/// `alternative_max_iou`.
+fn alternatives(
+    g: &grid::Grid,
+    chosen: &[boxes::Raw],
+    mut lost: Vec<boxes::Raw>,
+    cfg: &DetectConfig,
+) -> Vec<boxes::Raw> {
+    let max = cfg.alternatives_max as usize;
+    if max == 0 {
+        return Vec::new();
+    }
+    lost.sort_by(|a, b| b.score.total_cmp(&a.score));
+    // Cells of each kept candidate, as (owner index) lists per cell: chosen candidates may
+    // overlap a little, alternatives a lot.
+    let mut owners: Vec<Vec<u32>> = vec![Vec::new(); g.z.len()];
+    let mut sizes: Vec<usize> = Vec::new();
+    for c in chosen {
+        for &i in &c.cells {
+            owners[i as usize].push(sizes.len() as u32);
+        }
+        sizes.push(c.cells.len());
+    }
+    let mut out = Vec::new();
+    for c in lost {
+        if out.len() >= max {
+            break;
+        }
+        if c.score < cfg.min_score || c.n_faces < cfg.alternative_min_faces {
+            continue;
+        }
+        let mut inter: std::collections::HashMap<u32, usize> = Default::default();
+        for &i in &c.cells {
+            for &o in &owners[i as usize] {
+                *inter.entry(o).or_insert(0) += 1;
+            }
+        }
+        let n = c.cells.len();
+        let similar = inter.iter().any(|(&o, &x)| {
+            x as f64 >= cfg.alternative_max_iou * (n + sizes[o as usize] - x) as f64
+        });
+        if similar {
+            continue;
+        }
+        for &i in &c.cells {
+            owners[i as usize].push(sizes.len() as u32);
+        }
+        sizes.push(n);
         out.push(c);
     }
     out

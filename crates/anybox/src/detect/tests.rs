@@ -535,9 +535,30 @@ fn flat_carton_with_flap_seam_is_one_box() {
     };
     let dets = detect_boxes(Some(&rgb), &depth, &k(), &cfg).unwrap();
     assert!(
-        !dets.iter().any(|d| iou(&d.mask, &gt) > 0.85),
+        !dets
+            .iter()
+            .any(|d| !d.alternative && iou(&d.mask, &gt) > 0.85),
         "the seam no longer splits without the check: premise gone"
     );
+    // The whole carton lost that split decision: it comes back as an alternative reading,
+    // scored below the halves that won.
+    let whole = dets
+        .iter()
+        .find(|d| d.alternative && iou(&d.mask, &gt) > 0.85)
+        .expect("the unsplit carton as an alternative");
+    assert!(whole.n_faces >= 2);
+    assert!(dets
+        .iter()
+        .filter(|d| !d.alternative && shared_px(&d.mask, &gt) > 0)
+        .all(|d| d.score > whole.score));
+    // With alternatives off, the detections are the same, without it.
+    let off = DetectConfig {
+        alternatives_max: 0,
+        ..cfg
+    };
+    let primary: Vec<&Detection> = dets.iter().filter(|d| !d.alternative).collect();
+    let plain = detect_boxes(Some(&rgb), &depth, &k(), &off).unwrap();
+    assert_eq!(plain.iter().collect::<Vec<_>>(), primary);
 }
 
 /// Renders `cartons` on the table as the generator draws them: every face's creased edges
