@@ -94,44 +94,33 @@ pub fn to_record(
     }
 }
 
-/// Estimates every box of one frame; records carry `score × mask score`.
+/// Estimates every box of one frame; records carry `score × mask score`, and those of
+/// alternative readings ([`InstanceMask::alternative`]) `"alternative": true`.
 pub fn run_frame(
     depth: &DepthMap,
     intrinsics: &Intrinsics,
     masks: &[InstanceMask],
     config: &Config,
 ) -> RunOutput {
-    run_frame_with_alternatives(depth, intrinsics, masks, &[], config)
-}
-
-/// [`run_frame`] where `alternative[i]` marks alternative readings (see
-/// [`crate::pipeline::estimate_frame_with_alternatives`]); their records carry
-/// `"alternative": true`.
-fn run_frame_with_alternatives(
-    depth: &DepthMap,
-    intrinsics: &Intrinsics,
-    masks: &[InstanceMask],
-    alternative: &[bool],
-    config: &Config,
-) -> RunOutput {
     let plain: Vec<Mask> = masks.iter().map(|m| m.mask.clone()).collect();
+    let alternative: Vec<bool> = masks.iter().map(|m| m.alternative).collect();
     let start = Instant::now();
     let results = crate::pipeline::estimate_frame_with_alternatives(
         depth,
         intrinsics,
         &plain,
-        alternative,
+        &alternative,
         config,
     );
     let time_s = start.elapsed().as_secs_f64();
     let mut out = RunOutput::default();
-    for (i, (m, r)) in masks.iter().zip(results).enumerate() {
+    for (m, r) in masks.iter().zip(results) {
         match r {
             Ok(est) => {
                 let mut rec = to_record(0, 0, &est, time_s, None, None);
                 rec.score *= m.score;
                 rec.extra.insert("mask".into(), serde_json::json!(m.name));
-                if alternative.get(i).copied().unwrap_or(false) {
+                if m.alternative {
                     rec.extra
                         .insert("alternative".into(), serde_json::json!(true));
                 }
@@ -163,17 +152,7 @@ pub fn run_detected_frame(
     config: &Config,
 ) -> Result<RunOutput, crate::segmentation::SegmentationError> {
     let masks = crate::segmentation::detect_masks(rgb, depth, intrinsics, &config.detect)?;
-    let alternative: Vec<bool> = masks
-        .iter()
-        .map(|m| m.name.starts_with(crate::segmentation::ALTERNATIVE_PREFIX))
-        .collect();
-    let mut out = run_frame_with_alternatives(
-        depth,
-        intrinsics,
-        &masks,
-        &alternative,
-        &config.for_detected_masks(),
-    );
+    let mut out = run_frame(depth, intrinsics, &masks, &config.for_detected_masks());
     // Unions of the detections only: an alternative overlaps the detections it replaces.
     let (idx, scored): (Vec<usize>, Vec<(anybox_geom::OrientedBox, f64)>) = out
         .estimates
@@ -407,7 +386,7 @@ mod tests {
         assert!(!detector_alts.is_empty(), "no detector alternative here");
         for r in detector_alts {
             let name = r.extra["mask"].as_str().expect("a mask name");
-            assert!(name.starts_with(crate::segmentation::ALTERNATIVE_PREFIX));
+            assert!(name.starts_with("alternative detection "));
         }
     }
 }

@@ -85,6 +85,11 @@ pub struct InstanceMask {
     pub score: f64,
     /// Where it came from, for messages and result records (file, label value, detection index).
     pub name: String,
+    /// An alternative reading of boxes other masks already stand for (the built-in detector's
+    /// [`crate::detect::Detection::alternative`]; false for caller-side masks): its record
+    /// carries `"alternative": true`, and it gives no hidden extents to its neighbours
+    /// ([`crate::pipeline::estimate_frame_with_alternatives`]).
+    pub alternative: bool,
 }
 
 /// Loads the instance masks of one `width`×`height` px frame from a caller-side source. Every
@@ -122,6 +127,7 @@ pub fn load_masks(
                         mask,
                         score: 1.0,
                         name,
+                        alternative: false,
                     });
                 }
             }
@@ -132,6 +138,7 @@ pub fn load_masks(
                     mask,
                     score: 1.0,
                     name: p.display().to_string(),
+                    alternative: false,
                 });
             }
         }
@@ -144,6 +151,7 @@ pub fn load_masks(
                     mask: d.mask,
                     score: d.score,
                     name: format!("{} detection {i}", p.display()),
+                    alternative: false,
                 });
             }
         }
@@ -151,13 +159,9 @@ pub fn load_masks(
     Ok(out)
 }
 
-/// How [`detect_masks`] names the masks of alternative readings
-/// ([`crate::detect::Detection::alternative`]): this, then the detection's index.
-pub const ALTERNATIVE_PREFIX: &str = "alternative detection ";
-
 /// Runs the built-in zero-shot detector ([`crate::detect::detect_boxes`]) on one frame: one
-/// mask per detection, named `detection <i> (<n> faces)`, or with [`ALTERNATIVE_PREFIX`] for
-/// alternative readings.
+/// mask per detection, named `detection <i> (<n> faces)`, or `alternative detection <i> (<n>
+/// faces)` for alternative readings.
 pub fn detect_masks(
     rgb: Option<&anybox_io::RgbImage>,
     depth: &anybox_io::DepthMap,
@@ -172,10 +176,11 @@ pub fn detect_masks(
             mask: d.mask,
             score: d.score,
             name: if d.alternative {
-                format!("{ALTERNATIVE_PREFIX}{i} ({} faces)", d.n_faces)
+                format!("alternative detection {i} ({} faces)", d.n_faces)
             } else {
                 format!("detection {i} ({} faces)", d.n_faces)
             },
+            alternative: d.alternative,
         })
         .collect())
 }

@@ -1134,7 +1134,7 @@ fn alternatives(
     cfg: &DetectConfig,
 ) -> Vec<boxes::Raw> {
     let max = cfg.alternatives_max as usize;
-    if max == 0 {
+    if max == 0 || lost.is_empty() {
         return Vec::new();
     }
     lost.sort_by(|a, b| b.score.total_cmp(&a.score));
