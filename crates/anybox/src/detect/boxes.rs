@@ -613,14 +613,17 @@ pub(crate) fn group_candidates(
     };
     let big_enough =
         |c: usize, f: usize| regions[c].n as f64 >= cfg.curved_veto_min_ratio * regions[f].n as f64;
+    let vetoes = |c: usize, f: usize| {
+        big_enough(c, f) && regions[c].bend_deg >= cfg.curved_veto_min_bend_deg
+    };
     let mut touches_curved = vec![false; n];
     for (&(a, b), &c) in &contact {
         if c >= cfg.min_contact_cells {
             let (a, b) = (a as usize, b as usize);
-            if face[a] && curved(b) && big_enough(b, a) {
+            if face[a] && curved(b) && vetoes(b, a) {
                 touches_curved[a] = true;
             }
-            if face[b] && curved(a) && big_enough(a, b) {
+            if face[b] && curved(a) && vetoes(a, b) {
                 touches_curved[b] = true;
             }
         }
