@@ -844,24 +844,35 @@ pub(crate) fn table_d0_view(scene: u32) -> anybox_synth::SynthView {
     generate_view(&sc, scene, 0)
 }
 
+/// The best mask IoU of any detection with the box whose visible mask has bounding box `bbox`
+/// in [`table_d0_view`]`(scene)`, as a function of the detector's configuration.
+fn best_iou_in_table_d0_view(
+    scene: u32,
+    bbox: (u32, u32, u32, u32),
+) -> impl Fn(&DetectConfig) -> f64 {
+    let v = table_d0_view(scene);
+    let gt = v
+        .boxes
+        .iter()
+        .find(|b| b.mask_visib.bbox() == Some(bbox))
+        .expect("the carton is in the scene")
+        .mask_visib
+        .clone();
+    move |cfg| {
+        detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg)
+            .unwrap()
+            .iter()
+            .map(|d| iou(&d.mask, &gt))
+            .fold(0.0, f64::max)
+    }
+}
+
 #[test]
 fn a_thin_bent_sliver_does_not_veto_the_box_top_beside_it() {
     // Generated table scene (seed 2026, scene 22): a low carton with a taped top, seen from
     // above; its thin end face, a few cells wide, looks bent after smoothing. A lone face
     // touching a curved surface is dropped as a tin's cap, which lost this carton.
-    let v = table_d0_view(22);
-    let gt = v
-        .boxes
-        .iter()
-        .find(|b| b.mask_visib.bbox() == Some((261, 295, 343, 380)))
-        .expect("the carton is in the scene");
-    let best = |cfg: &DetectConfig| {
-        detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg)
-            .unwrap()
-            .iter()
-            .map(|d| iou(&d.mask, &gt.mask_visib))
-            .fold(0.0, f64::max)
-    };
+    let best = best_iou_in_table_d0_view(22, (261, 295, 343, 380));
     let found = best(&DetectConfig::default());
     assert!(found > 0.5, "best mask IoU {found}");
     // Premise: when any curved contact vetoes a lone face (any size, any bend past
@@ -879,19 +890,7 @@ fn a_noisy_flat_top_does_not_veto_the_side_beside_it() {
     // Generated table scene (seed 2026, scene 9): a small carton behind a tall one shows its
     // side and a dark top at a grazing angle. Depth noise bends the top's halves by about 14°
     // (a tin's side bends far more), and the top used to veto the side as a tin's cap.
-    let v = table_d0_view(9);
-    let gt = v
-        .boxes
-        .iter()
-        .find(|b| b.mask_visib.bbox() == Some((408, 181, 467, 312)))
-        .expect("the carton is in the scene");
-    let best = |cfg: &DetectConfig| {
-        detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg)
-            .unwrap()
-            .iter()
-            .map(|d| iou(&d.mask, &gt.mask_visib))
-            .fold(0.0, f64::max)
-    };
+    let best = best_iou_in_table_d0_view(9, (408, 181, 467, 312));
     let found = best(&DetectConfig::default());
     assert!(found > 0.8, "best mask IoU {found}");
     // Premise: when any bend past `max_bend_deg` vetoes, the carton is lost.
