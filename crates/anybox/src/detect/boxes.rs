@@ -611,10 +611,10 @@ pub(crate) fn group_candidates(
             && reg.inlier_frac >= cfg.min_plane_inlier_frac
             && reg.normal_spread_deg <= cfg.max_normal_spread_deg
     };
-    let big_enough =
-        |c: usize, f: usize| regions[c].n as f64 >= cfg.curved_veto_min_ratio * regions[f].n as f64;
+    // A curved surface `c` vetoes face `f` when it is large enough beside it and really bent.
     let vetoes = |c: usize, f: usize| {
-        big_enough(c, f) && regions[c].bend_deg >= cfg.curved_veto_min_bend_deg
+        regions[c].n as f64 >= cfg.curved_veto_min_ratio * regions[f].n as f64
+            && regions[c].bend_deg >= cfg.curved_veto_min_bend_deg
     };
     let mut touches_curved = vec![false; n];
     for (&(a, b), &c) in &contact {
