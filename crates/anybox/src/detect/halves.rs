@@ -20,6 +20,12 @@
 //! shows, the joint between them runs on down it and a flap seam does not, so two patches
 //! whose line is seen on an end face are not linked (`halves_joint_check`). Where no end face
 //! shows, such a pair is taken for one carton: the image holds nothing that tells them apart.
+//!
+//! A second pass (`halves_isolated_pairs`) takes the tops the chains miss: a seam along the
+//! top's short side, or halves too square for `halves_min_aspect`. There, a layer of cartons
+//! gives no order to pair along, so only a pair standing alone is joined: two patches touching
+//! along a whole side, each the other's only candidate, with the surface ending beyond all
+//! their other sides.
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
@@ -66,12 +72,35 @@ pub(crate) fn pair_halves(
             taped[l as usize] |= strip[i];
         }
     }
-    let halves: Vec<Half> = (0..n)
+    let mut parent: Vec<usize> = (0..n).collect();
+    let mut joined = pair_chains(g, regions, &cells, &taped, &mut parent, cfg);
+    if cfg.halves_isolated_pairs {
+        joined |= pair_isolated(g, regions, &cells, &taped, &mut parent, cfg);
+    }
+    if !joined {
+        return n;
+    }
+    // Pairs are disjoint, so every label's root is its parent.
+    compact_labels(labels, n, |l| parent[l])
+}
+
+/// The first pass: elongated halves side by side across their long sides, in chains paired
+/// off from a clean end (see the module doc). Sets `parent` of each pair's second label to
+/// its first; returns whether anything was paired.
+fn pair_chains(
+    g: &Grid,
+    regions: &[Region],
+    cells: &[Vec<usize>],
+    taped: &[bool],
+    parent: &mut [usize],
+    cfg: &DetectConfig,
+) -> bool {
+    let halves: Vec<Half> = (0..regions.len())
         .filter(|&l| !taped[l] && is_face(&regions[l], cfg))
         .filter_map(|l| half_of(g, l, &regions[l], &cells[l], cfg))
         .collect();
     if halves.len() < 2 {
-        return n;
+        return false;
     }
     // Best neighbour on either side of each half: (index into `halves`, gap error).
     let mut side: Vec<[Option<(usize, f64)>; 2]> = vec![[None, None]; halves.len()];
@@ -114,7 +143,6 @@ pub(crate) fn pair_halves(
         })
         .collect();
     let mut seen = vec![false; halves.len()];
-    let mut parent: Vec<usize> = (0..n).collect();
     let mut joined = false;
     for start in 0..halves.len() {
         if seen[start] || nbrs[start].len() != 1 {
@@ -165,15 +193,154 @@ pub(crate) fn pair_halves(
             joined = true;
         }
     }
-    if !joined {
-        return n;
+    joined
+}
+
+/// The second pass ([`DetectConfig::halves_isolated_pairs`]): two patches left unpaired, of
+/// any aspect, touching along a whole side (either of their sides), each the other's only such
+/// neighbour, with the surface ending beyond the pair's six other sides. Sets `parent` as
+/// [`pair_chains`] does; returns whether anything was paired.
+fn pair_isolated(
+    g: &Grid,
+    regions: &[Region],
+    cells: &[Vec<usize>],
+    taped: &[bool],
+    parent: &mut [usize],
+    cfg: &DetectConfig,
+) -> bool {
+    let n = regions.len();
+    let mut used = vec![false; n];
+    for l in 0..n {
+        if parent[l] != l {
+            used[l] = true;
+            used[parent[l]] = true;
+        }
     }
-    // Pairs are disjoint, so every label's root is its parent.
-    compact_labels(labels, n, |l| parent[l])
+    let rects: Vec<Half> = (0..n)
+        .filter(|&l| !used[l] && !taped[l] && is_face(&regions[l], cfg))
+        .filter_map(|l| rect_of(g, l, &regions[l], &cells[l], cfg))
+        .collect();
+    // Every touching pair, with the unit in-plane direction from the first to the second.
+    let mut pairs: Vec<(usize, usize, Vector3<f64>)> = Vec::new();
+    let mut partners = vec![0usize; rects.len()];
+    for a in 0..rects.len() {
+        for b in a + 1..rects.len() {
+            if let Some(out) = touching(&rects[a], &rects[b], cfg) {
+                pairs.push((a, b, out));
+                partners[a] += 1;
+                partners[b] += 1;
+            }
+        }
+    }
+    let mut joined = false;
+    for (a, b, out) in pairs {
+        if partners[a] != 1 || partners[b] != 1 {
+            continue;
+        }
+        // Each patch as a half whose seam side faces the other: `long` along the seam.
+        let (ha, hb) = (seam_frame(&rects[a], &out), seam_frame(&rects[b], &(-out)));
+        let ends = |h: &Half, inner: &Vector3<f64>| {
+            let side = h.normal.cross(inner);
+            let reach_side = h.len_mm / 2.0 + cfg.halves_gap_mm.max(0.25 * h.len_mm);
+            let reach_back = h.width_mm / 2.0 + cfg.halves_gap_mm.max(0.25 * h.width_mm);
+            surface_ends(g, h, &-inner, reach_back, &h.long, h.len_mm, cfg)
+                && surface_ends(g, h, &side, reach_side, inner, h.width_mm, cfg)
+                && surface_ends(g, h, &-side, reach_side, inner, h.width_mm, cfg)
+        };
+        let isolated = ends(&ha, &out) && ends(&hb, &-out);
+        let joint = cfg.halves_joint_check && joint_seen(g, &ha, &hb);
+        if log::log_enabled!(log::Level::Debug) {
+            let q = |h: &Half| g.k.project(&h.centre.into()).unwrap_or_default() * g.step as f64;
+            let (qa, qb) = (q(&ha), q(&hb));
+            log::debug!(
+                "halves pair ({:.0},{:.0} {:.0}x{:.0}) ({:.0},{:.0} {:.0}x{:.0}) isolated {isolated} joint {joint}",
+                qa.x, qa.y, ha.len_mm, ha.width_mm, qb.x, qb.y, hb.len_mm, hb.width_mm
+            );
+        }
+        if isolated && !joint {
+            parent[rects[b].label] = rects[a].label;
+            joined = true;
+        }
+    }
+    joined
+}
+
+/// Whether `b` touches `a` along a whole side of either (coplanar, about the same colour, the
+/// same extent along the shared side and across it, aligned along it, with a gap within
+/// `halves_gap_mm` plus the ratio's slack): the unit in-plane direction from `a` to `b`.
+fn touching(a: &Half, b: &Half, cfg: &DetectConfig) -> Option<Vector3<f64>> {
+    let cos_par = cfg.perpendicular_tol_deg.to_radians().cos();
+    let d = b.centre - a.centre;
+    let tol = plane_tol(cfg, a.centre.z.max(1.0));
+    let coplanar = a.normal.dot(&b.normal) >= cos_par && d.dot(&a.normal).abs() <= 3.0 * tol;
+    if !coplanar || (a.colour - b.colour).norm() > cfg.tape_colour_delta {
+        return None;
+    }
+    // b's extents along a's axes (near-square patches may have them swapped).
+    let (b_long, b_across) = if a.long.dot(&b.long).abs() >= cos_par {
+        (b.len_mm, b.width_mm)
+    } else if a.long.dot(&b.across).abs() >= cos_par {
+        (b.width_mm, b.len_mm)
+    } else {
+        return None;
+    };
+    let ratio = |x: f64, y: f64| x.min(y) / x.max(y);
+    let slack = 1.0 - cfg.halves_min_ratio;
+    let axes = [
+        (a.across, a.width_mm, b_across, a.long, a.len_mm, b_long),
+        (a.long, a.len_mm, b_long, a.across, a.width_mm, b_across),
+    ];
+    for (ax, ea, eb, along, fa, fb) in axes {
+        if ratio(ea, eb) < cfg.halves_min_ratio
+            || ratio(fa, fb) < cfg.halves_min_ratio
+            || d.dot(&along).abs() > slack * fa.max(fb)
+        {
+            continue;
+        }
+        let gap_err = (d.dot(&ax).abs() - (ea + eb) / 2.0).abs();
+        if gap_err <= cfg.halves_gap_mm + slack * (ea + eb) / 2.0 {
+            return Some(ax * d.dot(&ax).signum());
+        }
+    }
+    None
+}
+
+/// `h` re-framed for a seam on its side facing `towards` (a unit in-plane axis of `h`):
+/// `across` = `towards`, `long` along the seam.
+fn seam_frame(h: &Half, towards: &Vector3<f64>) -> Half {
+    let along_long = h.long.dot(towards).abs() >= h.across.dot(towards).abs();
+    let (len_mm, width_mm) = if along_long {
+        (h.width_mm, h.len_mm)
+    } else {
+        (h.len_mm, h.width_mm)
+    };
+    let across = *towards;
+    Half {
+        label: h.label,
+        centre: h.centre,
+        normal: h.normal,
+        long: across.cross(&h.normal),
+        across,
+        len_mm,
+        width_mm,
+        colour: h.colour,
+    }
 }
 
 /// A planar region as a possible half; `None` when it is not elongated enough.
 fn half_of(
+    g: &Grid,
+    label: usize,
+    r: &Region,
+    cells: &[usize],
+    cfg: &DetectConfig,
+) -> Option<Half> {
+    rect_of(g, label, r, cells, cfg).filter(|h| h.len_mm >= cfg.halves_min_aspect * h.width_mm)
+}
+
+/// A planar region as a rectangle along its in-plane principal axes (`long` the longer side);
+/// `None` when degenerate.
+fn rect_of(
     g: &Grid,
     label: usize,
     r: &Region,
@@ -202,7 +369,7 @@ fn half_of(
     let ((b0, b1), (c0, c1)) = (range(&b), range(&c));
     let (sb, sc) = (b1 - b0, c1 - c0);
     let (long, len_mm, width_mm) = if sb >= sc { (b, sb, sc) } else { (c, sc, sb) };
-    if width_mm <= 0.0 || len_mm < cfg.halves_min_aspect * width_mm {
+    if width_mm <= 0.0 {
         return None;
     }
     let centre = normal * normal.dot(&r.centroid) + b * (b0 + b1) / 2.0 + c * (c0 + c1) / 2.0;
@@ -307,12 +474,26 @@ fn joint_seen(g: &Grid, a: &Half, b: &Half) -> bool {
 /// third of nine points along its outer side, just beyond it, lie on `h`'s plane. Points
 /// outside the frame count for neither; with fewer than five inside, the end is not clean.
 fn clean_end(g: &Grid, h: &Half, out: &Vector3<f64>, cfg: &DetectConfig) -> bool {
-    let tol = plane_tol(cfg, h.centre.z.max(1.0));
     let reach = h.width_mm / 2.0 + cfg.halves_gap_mm.max(0.25 * h.width_mm);
+    surface_ends(g, h, out, reach, &h.long, h.len_mm, cfg)
+}
+
+/// Whether `h`'s plane ends `reach` mm from its centre in direction `out`: as in
+/// [`clean_end`], over nine points along `along` spanning 0.7 of `side_mm`.
+fn surface_ends(
+    g: &Grid,
+    h: &Half,
+    out: &Vector3<f64>,
+    reach: f64,
+    along: &Vector3<f64>,
+    side_mm: f64,
+    cfg: &DetectConfig,
+) -> bool {
+    let tol = plane_tol(cfg, h.centre.z.max(1.0));
     let (mut n, mut on_plane) = (0usize, 0usize);
     for k in 0..9 {
-        let t = (k as f64 / 8.0 - 0.5) * 0.7 * h.len_mm;
-        let p = h.centre + out * reach + h.long * t;
+        let t = (k as f64 / 8.0 - 0.5) * 0.7 * side_mm;
+        let p = h.centre + out * reach + along * t;
         let Some(q) = g.k.project(&p.into()) else {
             continue;
         };

@@ -296,8 +296,8 @@ pub struct DetectConfig {
     pub split_flap_check: bool,
     /// Flap-seam halves (see `halves`): a single-face candidate at least this many times as
     /// long as wide may be half a carton top; chains of such halves pair off from a carton's
-    /// edge into whole tops. 0 disables. Default 1.6 (a half of an L × W top with L ≥ W is
-    /// L × W/2, aspect ≥ 2).
+    /// edge into whole tops. 0 disables pairing (this and `halves_isolated_pairs`). Default
+    /// 1.6 (a half of an L × W top with L ≥ W is L × W/2, aspect ≥ 2).
     pub halves_min_aspect: f64,
     /// Two halves agree in length, width and position along their shared side within this
     /// ratio (shorter / longer). Default 0.8.
@@ -309,6 +309,13 @@ pub struct DetectConfig {
     /// face of theirs (the joint of two cartons; a flap seam stops at the top's edge).
     /// Default true.
     pub halves_joint_check: bool,
+    /// Also pair two patches that are halves of a top cut across its short side, or not
+    /// elongated enough for `halves_min_aspect` (a 120 × 300 mm top with its flap seam along
+    /// the 120 mm side gives two 120 × 150 mm halves), when the pair stands alone: the two are
+    /// coplanar, of about the same colour and size (`halves_min_ratio`), touch along a whole
+    /// side, neither touches another such patch, and the surface ends beyond every other side
+    /// of both. Default true.
+    pub halves_isolated_pairs: bool,
     /// "Next to" for `split_min_seam_cells`: within this many cells. Default 3.
     pub split_seam_reach_cells: u32,
     /// Colour-level candidates count for a split when they hold at least this fraction of the
@@ -460,6 +467,7 @@ impl Default for DetectConfig {
             halves_min_ratio: 0.8,
             halves_gap_mm: 15.0,
             halves_joint_check: true,
+            halves_isolated_pairs: true,
             split_seam_reach_cells: 3,
             split_min_fraction: 0.03,
             max_overlap: 0.3,
