@@ -72,10 +72,15 @@ pub(crate) fn pair_halves(
             taped[l as usize] |= strip[i];
         }
     }
+    let patches = Patches {
+        regions,
+        cells,
+        taped,
+    };
     let mut parent: Vec<usize> = (0..n).collect();
-    let mut joined = pair_chains(g, regions, &cells, &taped, &mut parent, cfg);
+    let mut joined = patches.pair_chains(g, &mut parent, cfg);
     if cfg.halves_isolated_pairs {
-        joined |= pair_isolated(g, regions, &cells, &taped, &mut parent, cfg);
+        joined |= patches.pair_isolated(g, &mut parent, cfg);
     }
     if !joined {
         return n;
@@ -84,185 +89,184 @@ pub(crate) fn pair_halves(
     compact_labels(labels, n, |l| parent[l])
 }
 
-/// The first pass: elongated halves side by side across their long sides, in chains paired
-/// off from a clean end (see the module doc). Sets `parent` of each pair's second label to
-/// its first; returns whether anything was paired.
-fn pair_chains(
-    g: &Grid,
-    regions: &[Region],
-    cells: &[Vec<usize>],
-    taped: &[bool],
-    parent: &mut [usize],
-    cfg: &DetectConfig,
-) -> bool {
-    let halves: Vec<Half> = (0..regions.len())
-        .filter(|&l| !taped[l] && is_face(&regions[l], cfg))
-        .filter_map(|l| half_of(g, l, &regions[l], &cells[l], cfg))
-        .collect();
-    if halves.len() < 2 {
-        return false;
-    }
-    // Best neighbour on either side of each half: (index into `halves`, gap error).
-    let mut side: Vec<[Option<(usize, f64)>; 2]> = vec![[None, None]; halves.len()];
-    for (a, ha) in halves.iter().enumerate() {
-        for (b, hb) in halves.iter().enumerate() {
-            if a == b {
-                continue;
-            }
-            if let Some((s, err)) = neighbour(ha, hb, cfg) {
-                if side[a][s].is_none_or(|(_, e)| err < e) {
-                    side[a][s] = Some((b, err));
-                }
-            }
+/// The colour-level regions both passes pair: plane fits, cells, and whether `bridge_tape`
+/// moved cells into them.
+struct Patches<'a> {
+    regions: &'a [Region],
+    cells: Vec<Vec<usize>>,
+    taped: Vec<bool>,
+}
+
+impl Patches<'_> {
+    /// The first pass: elongated halves side by side across their long sides, in chains paired
+    /// off from a clean end (see the module doc). Sets `parent` of each pair's second label to
+    /// its first; returns whether anything was paired.
+    fn pair_chains(&self, g: &Grid, parent: &mut [usize], cfg: &DetectConfig) -> bool {
+        let (regions, cells, taped) = (self.regions, &self.cells, &self.taped);
+        let halves: Vec<Half> = (0..regions.len())
+            .filter(|&l| !taped[l] && is_face(&regions[l], cfg))
+            .filter_map(|l| half_of(g, l, &regions[l], &cells[l], cfg))
+            .collect();
+        if halves.len() < 2 {
+            return false;
         }
-    }
-    // A side whose line is seen running down an end face is a carton's edge: no link there,
-    // and a chain ending there ends cleanly.
-    let mut joint = vec![[false; 2]; halves.len()];
-    if cfg.halves_joint_check {
-        for a in 0..halves.len() {
-            for s in 0..2 {
-                if let Some((b, _)) = side[a][s] {
-                    if joint_seen(g, &halves[a], &halves[b]) {
-                        joint[a][s] = true;
-                        side[a][s] = None;
+        // Best neighbour on either side of each half: (index into `halves`, gap error).
+        let mut side: Vec<[Option<(usize, f64)>; 2]> = vec![[None, None]; halves.len()];
+        for (a, ha) in halves.iter().enumerate() {
+            for (b, hb) in halves.iter().enumerate() {
+                if a == b {
+                    continue;
+                }
+                if let Some((s, err)) = neighbour(ha, hb, cfg) {
+                    if side[a][s].is_none_or(|(_, e)| err < e) {
+                        side[a][s] = Some((b, err));
                     }
                 }
             }
         }
-    }
-    // Mutual links only: b is a's best on one side and a is b's best on one side.
-    let nbrs: Vec<Vec<usize>> = (0..halves.len())
-        .map(|a| {
-            side[a]
-                .iter()
-                .flatten()
-                .map(|&(b, _)| b)
-                .filter(|&b| side[b].iter().flatten().any(|&(x, _)| x == a))
-                .collect()
-        })
-        .collect();
-    let mut seen = vec![false; halves.len()];
-    let mut joined = false;
-    for start in 0..halves.len() {
-        if seen[start] || nbrs[start].len() != 1 {
-            continue;
-        }
-        // Walk the chain from this end.
-        let mut chain = vec![start];
-        seen[start] = true;
-        let (mut prev, mut cur) = (start, nbrs[start][0]);
-        while !seen[cur] {
-            seen[cur] = true;
-            chain.push(cur);
-            let Some(&next) = nbrs[cur].iter().find(|&&x| x != prev) else {
-                break;
-            };
-            (prev, cur) = (cur, next);
-        }
-        let k = chain.len();
-        let end_clean = |e: usize, inner: usize| {
-            let (he, hi) = (&halves[e], &halves[inner]);
-            let inward = (hi.centre - he.centre).dot(&he.across);
-            // `neighbour`'s side index: 1 = along +across.
-            joint[e][usize::from(inward <= 0.0)]
-                || clean_end(g, he, &(-inward.signum() * he.across), cfg)
-        };
-        let first = end_clean(chain[0], chain[1]);
-        let last = end_clean(chain[k - 1], chain[k - 2]);
-        if log::log_enabled!(log::Level::Debug) {
-            let desc: Vec<String> = chain
-                .iter()
-                .map(|&c| {
-                    let h = &halves[c];
-                    let q = g.k.project(&h.centre.into()).unwrap_or_default() * g.step as f64;
-                    format!("({:.0},{:.0} {:.0}x{:.0})", q.x, q.y, h.len_mm, h.width_mm)
-                })
-                .collect();
-            log::debug!("halves chain {k} clean {first} {last}: {}", desc.join(" "));
-        }
-        // Pair off from a clean end (for an even count both ends give the same pairs).
-        let order: Vec<usize> = match (k % 2 == 0, first, last) {
-            (true, true, _) | (true, false, true) | (false, true, false) => chain,
-            (false, false, true) => chain.into_iter().rev().collect(),
-            _ => continue,
-        };
-        for p in order.chunks_exact(2) {
-            let (a, b) = (halves[p[0]].label, halves[p[1]].label);
-            parent[b] = a;
-            joined = true;
-        }
-    }
-    joined
-}
-
-/// The second pass ([`DetectConfig::halves_isolated_pairs`]): two patches left unpaired, of
-/// any aspect, touching along a whole side (either of their sides), each the other's only such
-/// neighbour, with the surface ending beyond the pair's six other sides. Sets `parent` as
-/// [`pair_chains`] does; returns whether anything was paired.
-fn pair_isolated(
-    g: &Grid,
-    regions: &[Region],
-    cells: &[Vec<usize>],
-    taped: &[bool],
-    parent: &mut [usize],
-    cfg: &DetectConfig,
-) -> bool {
-    let n = regions.len();
-    let mut used = vec![false; n];
-    for l in 0..n {
-        if parent[l] != l {
-            used[l] = true;
-            used[parent[l]] = true;
-        }
-    }
-    let rects: Vec<Half> = (0..n)
-        .filter(|&l| !used[l] && !taped[l] && is_face(&regions[l], cfg))
-        .filter_map(|l| rect_of(g, l, &regions[l], &cells[l], cfg))
-        .collect();
-    // Every touching pair, with the unit in-plane direction from the first to the second.
-    let mut pairs: Vec<(usize, usize, Vector3<f64>)> = Vec::new();
-    let mut partners = vec![0usize; rects.len()];
-    for a in 0..rects.len() {
-        for b in a + 1..rects.len() {
-            if let Some(out) = touching(&rects[a], &rects[b], cfg) {
-                pairs.push((a, b, out));
-                partners[a] += 1;
-                partners[b] += 1;
+        // A side whose line is seen running down an end face is a carton's edge: no link there,
+        // and a chain ending there ends cleanly.
+        let mut joint = vec![[false; 2]; halves.len()];
+        if cfg.halves_joint_check {
+            for a in 0..halves.len() {
+                for s in 0..2 {
+                    if let Some((b, _)) = side[a][s] {
+                        if joint_seen(g, &halves[a], &halves[b]) {
+                            joint[a][s] = true;
+                            side[a][s] = None;
+                        }
+                    }
+                }
             }
         }
-    }
-    let mut joined = false;
-    for (a, b, out) in pairs {
-        if partners[a] != 1 || partners[b] != 1 {
-            continue;
+        // Mutual links only: b is a's best on one side and a is b's best on one side.
+        let nbrs: Vec<Vec<usize>> = (0..halves.len())
+            .map(|a| {
+                side[a]
+                    .iter()
+                    .flatten()
+                    .map(|&(b, _)| b)
+                    .filter(|&b| side[b].iter().flatten().any(|&(x, _)| x == a))
+                    .collect()
+            })
+            .collect();
+        let mut seen = vec![false; halves.len()];
+        let mut joined = false;
+        for start in 0..halves.len() {
+            if seen[start] || nbrs[start].len() != 1 {
+                continue;
+            }
+            // Walk the chain from this end.
+            let mut chain = vec![start];
+            seen[start] = true;
+            let (mut prev, mut cur) = (start, nbrs[start][0]);
+            while !seen[cur] {
+                seen[cur] = true;
+                chain.push(cur);
+                let Some(&next) = nbrs[cur].iter().find(|&&x| x != prev) else {
+                    break;
+                };
+                (prev, cur) = (cur, next);
+            }
+            let k = chain.len();
+            let end_clean = |e: usize, inner: usize| {
+                let (he, hi) = (&halves[e], &halves[inner]);
+                let inward = (hi.centre - he.centre).dot(&he.across);
+                // `neighbour`'s side index: 1 = along +across.
+                joint[e][usize::from(inward <= 0.0)]
+                    || clean_end(g, he, &(-inward.signum() * he.across), cfg)
+            };
+            let first = end_clean(chain[0], chain[1]);
+            let last = end_clean(chain[k - 1], chain[k - 2]);
+            if log::log_enabled!(log::Level::Debug) {
+                let desc: Vec<String> = chain
+                    .iter()
+                    .map(|&c| {
+                        let h = &halves[c];
+                        let q = g.k.project(&h.centre.into()).unwrap_or_default() * g.step as f64;
+                        format!("({:.0},{:.0} {:.0}x{:.0})", q.x, q.y, h.len_mm, h.width_mm)
+                    })
+                    .collect();
+                log::debug!("halves chain {k} clean {first} {last}: {}", desc.join(" "));
+            }
+            // Pair off from a clean end (for an even count both ends give the same pairs).
+            let order: Vec<usize> = match (k % 2 == 0, first, last) {
+                (true, true, _) | (true, false, true) | (false, true, false) => chain,
+                (false, false, true) => chain.into_iter().rev().collect(),
+                _ => continue,
+            };
+            for p in order.chunks_exact(2) {
+                let (a, b) = (halves[p[0]].label, halves[p[1]].label);
+                parent[b] = a;
+                joined = true;
+            }
         }
-        // Each patch as a half whose seam side faces the other: `long` along the seam.
-        let (ha, hb) = (seam_frame(&rects[a], &out), seam_frame(&rects[b], &(-out)));
-        let ends = |h: &Half, inner: &Vector3<f64>| {
-            let side = h.normal.cross(inner);
-            let reach_side = h.len_mm / 2.0 + cfg.halves_gap_mm.max(0.25 * h.len_mm);
-            let reach_back = h.width_mm / 2.0 + cfg.halves_gap_mm.max(0.25 * h.width_mm);
-            surface_ends(g, h, &-inner, reach_back, &h.long, h.len_mm, cfg)
-                && surface_ends(g, h, &side, reach_side, inner, h.width_mm, cfg)
-                && surface_ends(g, h, &-side, reach_side, inner, h.width_mm, cfg)
-        };
-        let isolated = ends(&ha, &out) && ends(&hb, &-out);
-        let joint = cfg.halves_joint_check && joint_seen(g, &ha, &hb);
-        if log::log_enabled!(log::Level::Debug) {
-            let q = |h: &Half| g.k.project(&h.centre.into()).unwrap_or_default() * g.step as f64;
-            let (qa, qb) = (q(&ha), q(&hb));
-            log::debug!(
+        joined
+    }
+
+    /// The second pass ([`DetectConfig::halves_isolated_pairs`]): two patches left unpaired, of
+    /// any aspect, touching along a whole side (either of their sides), each the other's only such
+    /// neighbour, with the surface ending beyond the pair's six other sides. Sets `parent` as
+    /// [`Patches::pair_chains`] does; returns whether anything was paired.
+    fn pair_isolated(&self, g: &Grid, parent: &mut [usize], cfg: &DetectConfig) -> bool {
+        let (regions, cells, taped) = (self.regions, &self.cells, &self.taped);
+        let n = regions.len();
+        let mut used = vec![false; n];
+        for l in 0..n {
+            if parent[l] != l {
+                used[l] = true;
+                used[parent[l]] = true;
+            }
+        }
+        let rects: Vec<Half> = (0..n)
+            .filter(|&l| !used[l] && !taped[l] && is_face(&regions[l], cfg))
+            .filter_map(|l| rect_of(g, l, &regions[l], &cells[l], cfg))
+            .collect();
+        // Every touching pair, with the unit in-plane direction from the first to the second.
+        let mut pairs: Vec<(usize, usize, Vector3<f64>)> = Vec::new();
+        let mut partners = vec![0usize; rects.len()];
+        for a in 0..rects.len() {
+            for b in a + 1..rects.len() {
+                if let Some(out) = touching(&rects[a], &rects[b], cfg) {
+                    pairs.push((a, b, out));
+                    partners[a] += 1;
+                    partners[b] += 1;
+                }
+            }
+        }
+        let mut joined = false;
+        for (a, b, out) in pairs {
+            if partners[a] != 1 || partners[b] != 1 {
+                continue;
+            }
+            // Each patch as a half whose seam side faces the other: `long` along the seam.
+            let (ha, hb) = (seam_frame(&rects[a], &out), seam_frame(&rects[b], &(-out)));
+            let ends = |h: &Half, inner: &Vector3<f64>| {
+                let side = h.normal.cross(inner);
+                let reach_side = h.len_mm / 2.0 + cfg.halves_gap_mm.max(0.25 * h.len_mm);
+                let reach_back = h.width_mm / 2.0 + cfg.halves_gap_mm.max(0.25 * h.width_mm);
+                surface_ends(g, h, &-inner, reach_back, &h.long, h.len_mm, cfg)
+                    && surface_ends(g, h, &side, reach_side, inner, h.width_mm, cfg)
+                    && surface_ends(g, h, &-side, reach_side, inner, h.width_mm, cfg)
+            };
+            let isolated = ends(&ha, &out) && ends(&hb, &-out);
+            let joint = cfg.halves_joint_check && joint_seen(g, &ha, &hb);
+            if log::log_enabled!(log::Level::Debug) {
+                let q =
+                    |h: &Half| g.k.project(&h.centre.into()).unwrap_or_default() * g.step as f64;
+                let (qa, qb) = (q(&ha), q(&hb));
+                log::debug!(
                 "halves pair ({:.0},{:.0} {:.0}x{:.0}) ({:.0},{:.0} {:.0}x{:.0}) isolated {isolated} joint {joint}",
                 qa.x, qa.y, ha.len_mm, ha.width_mm, qb.x, qb.y, hb.len_mm, hb.width_mm
             );
+            }
+            if isolated && !joint {
+                parent[rects[b].label] = rects[a].label;
+                joined = true;
+            }
         }
-        if isolated && !joint {
-            parent[rects[b].label] = rects[a].label;
-            joined = true;
-        }
+        joined
     }
-    joined
 }
 
 /// Whether `b` touches `a` along a whole side of either (coplanar, about the same colour, the
