@@ -255,10 +255,14 @@ impl Patches<'_> {
                 let q =
                     |h: &Half| g.k.project(&h.centre.into()).unwrap_or_default() * g.step as f64;
                 let (qa, qb) = (q(&ha), q(&hb));
+                let desc = |q: nalgebra::Point2<f64>, h: &Half| {
+                    format!("({:.0},{:.0} {:.0}x{:.0})", q.x, q.y, h.len_mm, h.width_mm)
+                };
                 log::debug!(
-                "halves pair ({:.0},{:.0} {:.0}x{:.0}) ({:.0},{:.0} {:.0}x{:.0}) isolated {isolated} joint {joint}",
-                qa.x, qa.y, ha.len_mm, ha.width_mm, qb.x, qb.y, hb.len_mm, hb.width_mm
-            );
+                    "halves pair {} {} isolated {isolated} joint {joint}",
+                    desc(qa, &ha),
+                    desc(qb, &hb)
+                );
             }
             if isolated && !joint {
                 parent[rects[b].label] = rects[a].label;
@@ -269,15 +273,21 @@ impl Patches<'_> {
     }
 }
 
+/// Whether `a` and `b` lie in one plane: normals within `perpendicular_tol_deg`, and `b`'s
+/// centre within three plane tolerances of `a`'s plane.
+fn coplanar(a: &Half, b: &Half, cfg: &DetectConfig) -> bool {
+    let cos_par = cfg.perpendicular_tol_deg.to_radians().cos();
+    let tol = plane_tol(cfg, a.centre.z.max(1.0));
+    a.normal.dot(&b.normal) >= cos_par && (b.centre - a.centre).dot(&a.normal).abs() <= 3.0 * tol
+}
+
 /// Whether `b` touches `a` along a whole side of either (coplanar, about the same colour, the
 /// same extent along the shared side and across it, aligned along it, with a gap within
 /// `halves_gap_mm` plus the ratio's slack): the unit in-plane direction from `a` to `b`.
 fn touching(a: &Half, b: &Half, cfg: &DetectConfig) -> Option<Vector3<f64>> {
     let cos_par = cfg.perpendicular_tol_deg.to_radians().cos();
     let d = b.centre - a.centre;
-    let tol = plane_tol(cfg, a.centre.z.max(1.0));
-    let coplanar = a.normal.dot(&b.normal) >= cos_par && d.dot(&a.normal).abs() <= 3.0 * tol;
-    if !coplanar || (a.colour - b.colour).norm() > cfg.tape_colour_delta {
+    if !coplanar(a, b, cfg) || (a.colour - b.colour).norm() > cfg.tape_colour_delta {
         return None;
     }
     // b's extents along a's axes (near-square patches may have them swapped).
@@ -394,9 +404,7 @@ fn rect_of(
 fn neighbour(a: &Half, b: &Half, cfg: &DetectConfig) -> Option<(usize, f64)> {
     let cos_par = cfg.perpendicular_tol_deg.to_radians().cos();
     let d = b.centre - a.centre;
-    let tol = plane_tol(cfg, a.centre.z.max(1.0));
-    let coplanar = a.normal.dot(&b.normal) >= cos_par && d.dot(&a.normal).abs() <= 3.0 * tol;
-    if !coplanar || a.long.dot(&b.long).abs() < cos_par {
+    if !coplanar(a, b, cfg) || a.long.dot(&b.long).abs() < cos_par {
         return None;
     }
     let ratio = |x: f64, y: f64| x.min(y) / x.max(y);
