@@ -243,11 +243,9 @@ impl Patches<'_> {
             let (ha, hb) = (seam_frame(&rects[a], &out), seam_frame(&rects[b], &(-out)));
             let ends = |h: &Half, inner: &Vector3<f64>| {
                 let side = h.normal.cross(inner);
-                let reach_side = h.len_mm / 2.0 + cfg.halves_gap_mm.max(0.25 * h.len_mm);
-                let reach_back = h.width_mm / 2.0 + cfg.halves_gap_mm.max(0.25 * h.width_mm);
-                surface_ends(g, h, &-inner, reach_back, &h.long, h.len_mm, cfg)
-                    && surface_ends(g, h, &side, reach_side, inner, h.width_mm, cfg)
-                    && surface_ends(g, h, &-side, reach_side, inner, h.width_mm, cfg)
+                clean_end(g, h, &-inner, cfg)
+                    && surface_ends(g, h, &side, h.len_mm, inner, h.width_mm, cfg)
+                    && surface_ends(g, h, &-side, h.len_mm, inner, h.width_mm, cfg)
             };
             let isolated = ends(&ha, &out) && ends(&hb, &-out);
             let joint = cfg.halves_joint_check && joint_seen(g, &ha, &hb);
@@ -486,21 +484,22 @@ fn joint_seen(g: &Grid, a: &Half, b: &Half) -> bool {
 /// third of nine points along its outer side, just beyond it, lie on `h`'s plane. Points
 /// outside the frame count for neither; with fewer than five inside, the end is not clean.
 fn clean_end(g: &Grid, h: &Half, out: &Vector3<f64>, cfg: &DetectConfig) -> bool {
-    let reach = h.width_mm / 2.0 + cfg.halves_gap_mm.max(0.25 * h.width_mm);
-    surface_ends(g, h, out, reach, &h.long, h.len_mm, cfg)
+    surface_ends(g, h, out, h.width_mm, &h.long, h.len_mm, cfg)
 }
 
-/// Whether `h`'s plane ends `reach` mm from its centre in direction `out`: as in
-/// [`clean_end`], over nine points along `along` spanning 0.7 of `side_mm`.
+/// Whether `h`'s plane ends beyond its side facing `out`, where `h` extends `extent_mm` along
+/// `out`: as in [`clean_end`], over nine points along `along` spanning 0.7 of `side_mm`, at
+/// `extent_mm / 2` plus `halves_gap_mm` (at least a quarter of `extent_mm`) from its centre.
 fn surface_ends(
     g: &Grid,
     h: &Half,
     out: &Vector3<f64>,
-    reach: f64,
+    extent_mm: f64,
     along: &Vector3<f64>,
     side_mm: f64,
     cfg: &DetectConfig,
 ) -> bool {
+    let reach = extent_mm / 2.0 + cfg.halves_gap_mm.max(0.25 * extent_mm);
     let tol = plane_tol(cfg, h.centre.z.max(1.0));
     let (mut n, mut on_plane) = (0usize, 0usize);
     for k in 0..9 {
