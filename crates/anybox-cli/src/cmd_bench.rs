@@ -51,8 +51,9 @@ pub struct BenchArgs {
     /// Also write the markdown to this file.
     #[arg(long, value_name = "MD")]
     pub markdown: Option<PathBuf>,
-    /// Configuration of the detection rows as JSON (fields of anybox::config::Config, e.g.
-    /// `{"detect": {"blobs": false}}`; missing = defaults). The variant rows keep their own.
+    /// Configuration of the detection rows: a JSON file of anybox::config::Config's fields
+    /// (e.g. holding `{"detect": {"blobs": false}}`; missing = defaults). The variant rows keep
+    /// their own.
     #[arg(long, value_name = "JSON")]
     pub config: Option<PathBuf>,
 }

@@ -27,7 +27,8 @@ pub struct DemoArgs {
     /// Generator seed.
     #[arg(long, default_value_t = 7)]
     pub seed: u64,
-    /// Estimator configuration as JSON (missing fields = defaults).
+    /// Estimator configuration: a JSON file of anybox::config::Config's fields (missing =
+    /// defaults).
     #[arg(long, value_name = "JSON")]
     pub config: Option<PathBuf>,
 }

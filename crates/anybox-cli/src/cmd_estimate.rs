@@ -52,7 +52,8 @@ pub struct EstimateArgs {
     /// Single-frame mode: write an overlay PNG (wireframes, axes, sizes in mm).
     #[arg(long, value_name = "PNG")]
     pub overlay: Option<PathBuf>,
-    /// Estimator configuration as JSON (fields of anybox::config::Config; missing = defaults).
+    /// Estimator configuration: a JSON file of anybox::config::Config's fields (missing =
+    /// defaults).
     #[arg(long, value_name = "JSON")]
     pub config: Option<PathBuf>,
 }
@@ -61,6 +62,14 @@ pub fn load_config(path: Option<&Path>) -> anyhow::Result<Config> {
     match path {
         None => Ok(Config::default()),
         Some(p) => {
+            // `--config '{"detect": ...}'` is a natural mistake: say what is expected.
+            if !p.exists() && p.to_string_lossy().trim_start().starts_with('{') {
+                anyhow::bail!(
+                    "--config takes the path of a JSON file, not the JSON itself: write {} to a \
+                     file and pass its path",
+                    p.display()
+                );
+            }
             let text = std::fs::read_to_string(p)
                 .with_context(|| format!("{}: cannot read config", p.display()))?;
             serde_json::from_str(&text)

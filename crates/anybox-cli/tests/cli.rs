@@ -174,6 +174,21 @@ fn bad_inputs_give_errors_not_panics() {
         out_s,
     ]);
     assert_clean_failure(&o, "nonexistent");
+    // Inline JSON where a config file is expected.
+    let o = anybox(&[
+        "estimate",
+        "--depth",
+        "/nonexistent/depth.png",
+        "--camera",
+        "/nonexistent/cam.json",
+        "--masks",
+        "/nonexistent/m.png",
+        "--out",
+        out_s,
+        "--config",
+        r#"{"detect": {"blobs": false}}"#,
+    ]);
+    assert_clean_failure(&o, "takes the path of a JSON file");
     // Truncated camera JSON.
     let cam = d.join("camera.json");
     std::fs::write(&cam, r#"{"cam_K": [500, 0, 320, 0, 500"#).unwrap();
