@@ -7,8 +7,9 @@
 //! come from: surfaces, colour patches, objects; default objects), `VIEW=<index>` (one view
 //! only), `KIND=1` (per detection: exact, part of one box, bleeding into others, mixed or junk,
 //! by precision and recall against the GT mask it overlaps most). With `EST3D=1`, each GT line
-//! also gives `nz` (share of its mask without depth), `cc` (pieces of its mask) and `cam` (the
-//! simulated camera); `DET3D=1` adds, per detection, the 3D
+//! also gives `nz` (share of its mask without depth), `cc` (pieces of its mask), `cam` (the
+//! simulated camera) and `inter` (3D IoU of the estimate from the best detection's mask cut
+//! down to the GT mask: a bleeding mask scores well there, a partial one does not); `DET3D=1` adds, per detection, the 3D
 //! interpenetration with the other estimates (`pin`, `pout`, `pinhi`), the depth penalty and
 //! the estimated and best GT's sorted sizes; `UNION=<r>` lists every pair of estimates
 //! whose axes agree and whose union is at most r times their volume (`pipeline::tiled_union`,
@@ -922,6 +923,17 @@ fn main() {
                         _ => -1.0,
                     };
                     print!("  pen {pen:.2}");
+                    // The best detection's mask cut down to the GT's (its bleed removed): what
+                    // the estimator makes of that detection's right pixels alone.
+                    if j != usize::MAX {
+                        let mut cut = masks[j].clone();
+                        for (c, &g) in cut.data.iter_mut().zip(&gtm[k].data) {
+                            *c &= g;
+                        }
+                        let e =
+                            anybox::pipeline::estimate_box(&v.depth, &v.intrinsics, &cut, &cfg_e);
+                        print!(" inter {:.2}", i3(&e));
+                    }
                     if erode_r > 0 && j != usize::MAX {
                         print!(
                             " ero {:.2} es {:.3} ee {:.3}",
