@@ -793,33 +793,17 @@ mod tests {
     #[test]
     fn specks_of_the_surroundings_in_the_mask_leave_the_size_alone() {
         let (k, depth, gt, specks) = box_with_specks();
+        let size_err = |b: &OrientedBox| anybox_geom::symmetry::size_error_mm(b, &gt).max();
         let e = estimate_box(&depth, &k, &specks, &Config::default()).unwrap();
-        let err = (e.pose.size_mm - sorted_like(&gt, &e.pose)).abs().max();
+        let err = size_err(&e.pose);
         assert!(iou(&e.pose, &gt) > 0.85, "iou {}", iou(&e.pose, &gt));
         assert!(err < 10.0, "size {:?} vs {:?}", e.pose.size_mm, gt.size_mm);
         // Premise: without the depth gate the specks' rays stretch the box.
         let mut off = Config::default();
         off.scale.maskfit_gate_abs_mm = 0.0;
         let f = estimate_box(&depth, &k, &specks, &off).unwrap();
-        let err_off = (f.pose.size_mm - sorted_like(&gt, &f.pose)).abs().max();
+        let err_off = size_err(&f.pose);
         assert!(err_off > 30.0, "size without gate {:?}", f.pose.size_mm);
-    }
-
-    /// `gt`'s extents along the axes of `est` (each of `est`'s axes takes the extent of the
-    /// `gt` axis most parallel to it).
-    fn sorted_like(gt: &OrientedBox, est: &OrientedBox) -> Vector3<f64> {
-        Vector3::from_fn(|i, _| {
-            let a = est.axis(i);
-            let j = (0..3)
-                .max_by(|&x, &y| {
-                    gt.axis(x)
-                        .dot(&a)
-                        .abs()
-                        .total_cmp(&gt.axis(y).dot(&a).abs())
-                })
-                .unwrap_or(0);
-            gt.size_mm[j]
-        })
     }
 
     #[test]
