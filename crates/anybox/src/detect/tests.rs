@@ -1172,3 +1172,50 @@ fn a_top_cut_across_its_short_side_is_one_carton() {
     });
     assert!(split < 0.5, "best mask IoU without isolated pairs {split}");
 }
+
+#[test]
+fn a_box_standing_on_a_box_of_another_colour_is_not_one_carton() {
+    // Generated table scene (seed 2026, scene 23): a dark 140 × 206 × 334 mm carton stands on
+    // a light grey 191 × 214 × 196 mm one, their front faces coplanar. The line between them
+    // stops at a side face, as a carton's own flap seam does, so the flap check kept the two
+    // as one candidate; a flap seam has the same colour on both sides.
+    let v = table_d0_view(23);
+    let mask_of = |dims: [f64; 3]| {
+        v.boxes
+            .iter()
+            .find(|b| {
+                let mut s = [b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z];
+                s.sort_by(f64::total_cmp);
+                s.iter().zip(dims).all(|(a, d)| (a - d).abs() < 1.0)
+            })
+            .expect("the box is in the scene")
+            .mask_visib
+            .clone()
+    };
+    let (dark, grey) = (
+        mask_of([140.0, 206.0, 334.0]),
+        mask_of([191.0, 196.0, 214.0]),
+    );
+    // Best mask IoU with each box among the primary detections (alternatives left out).
+    let best = |cfg: &DetectConfig| {
+        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
+        let of = |m: &Mask| {
+            dets.iter()
+                .filter(|d| !d.alternative)
+                .map(|d| iou(&d.mask, m))
+                .fold(0.0, f64::max)
+        };
+        (of(&dark), of(&grey))
+    };
+    let (d, g) = best(&DetectConfig::default());
+    assert!(d > 0.9 && g > 0.8, "best mask IoU: dark {d}, grey {g}");
+    // Premise: without the colour test the pair is one detection, bleeding into the grey box.
+    let (d, g) = best(&DetectConfig {
+        split_flap_max_colour_delta: 0.0,
+        ..DetectConfig::default()
+    });
+    assert!(
+        d < 0.85 && g < 0.5,
+        "without the colour test: dark {d}, grey {g}"
+    );
+}
