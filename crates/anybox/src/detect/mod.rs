@@ -953,23 +953,22 @@ fn flap_seam(g: &grid::Grid, cells: &[u32], seam: &[usize], top: &nalgebra::Vect
 
 /// Mean colour (RGB levels) of a candidate's cells whose normal lies within 25° of `n`, and
 /// how many there are: faces of one orientation share their shading, so colours compare.
-fn facing_colour(g: &grid::Grid, c: &boxes::Raw, n: &nalgebra::Vector3<f64>) -> ([f64; 3], usize) {
+fn facing_colour(
+    g: &grid::Grid,
+    c: &boxes::Raw,
+    n: &nalgebra::Vector3<f64>,
+) -> (nalgebra::Vector3<f64>, usize) {
     let cos = 25f64.to_radians().cos();
-    let (mut sum, mut k) = ([0.0f64; 3], 0usize);
+    let v = |a: &[f32; 3]| nalgebra::Vector3::new(a[0] as f64, a[1] as f64, a[2] as f64);
+    let (mut sum, mut k) = (nalgebra::Vector3::zeros(), 0usize);
     for &i in &c.cells {
         let i = i as usize;
-        let m = g.n[i];
-        let d = (m[0] as f64 * n.x + m[1] as f64 * n.y + m[2] as f64 * n.z).abs();
-        if g.z[i] <= 0.0 || d < cos {
-            continue;
+        if g.z[i] > 0.0 && v(&g.n[i]).dot(n).abs() >= cos {
+            sum += v(&g.c[i]);
+            k += 1;
         }
-        for ch in 0..3 {
-            sum[ch] += g.c[i][ch] as f64;
-        }
-        k += 1;
     }
-    let k1 = k.max(1) as f64;
-    ([sum[0] / k1, sum[1] / k1, sum[2] / k1], k)
+    (sum / k.max(1) as f64, k)
 }
 
 /// Whether two coplanar colour-level candidates could be the halves of one carton cut by its
@@ -984,11 +983,7 @@ fn same_colour(g: &grid::Grid, a: &boxes::Raw, b: &boxes::Raw, cfg: &DetectConfi
     }
     let (ma, na) = facing_colour(g, a, &a.normal);
     let (mb, nb) = facing_colour(g, b, &a.normal);
-    if na < 10 || nb < 10 {
-        return true;
-    }
-    let d2: f64 = (0..3).map(|c| (ma[c] - mb[c]).powi(2)).sum();
-    d2.sqrt() < max
+    na < 10 || nb < 10 || (ma - mb).norm() < max
 }
 
 /// Which coarse candidates (objects or surfaces) are several cartons with flush faces: a seam
