@@ -9,7 +9,8 @@
 //! by precision and recall against the GT mask it overlaps most). With `EST3D=1`, each GT line
 //! also gives `nz` (share of its mask without depth), `cc` (pieces of its mask), `cam` (the
 //! simulated camera) and `inter` (3D IoU of the estimate from the best detection's mask cut
-//! down to the GT mask: a bleeding mask scores well there, a partial one does not); `DET3D=1` adds, per detection, the 3D
+//! down to the GT mask: a bleeding mask scores well there, a partial one does not);
+//! `DET3D=1` adds, per detection, the 3D
 //! interpenetration with the other estimates (`pin`, `pout`, `pinhi`), the depth penalty and
 //! the estimated and best GT's sorted sizes; `UNION=<r>` lists every pair of estimates
 //! whose axes agree and whose union is at most r times their volume (`pipeline::tiled_union`,

@@ -959,12 +959,11 @@ fn facing_colour(
     n: &nalgebra::Vector3<f64>,
 ) -> (nalgebra::Vector3<f64>, usize) {
     let cos = 25f64.to_radians().cos();
-    let v = |a: &[f32; 3]| nalgebra::Vector3::new(a[0] as f64, a[1] as f64, a[2] as f64);
     let (mut sum, mut k) = (nalgebra::Vector3::zeros(), 0usize);
     for &i in &c.cells {
         let i = i as usize;
-        if g.z[i] > 0.0 && v(&g.n[i]).dot(n).abs() >= cos {
-            sum += v(&g.c[i]);
+        if g.z[i] > 0.0 && boxes::v3(&g.n[i]).dot(n).abs() >= cos {
+            sum += boxes::v3(&g.c[i]);
             k += 1;
         }
     }
