@@ -9,7 +9,10 @@
 //! by precision and recall against the GT mask it overlaps most). With `EST3D=1`, each GT line
 //! also gives `nz` (share of its mask without depth), `cc` (pieces of its mask), `cam` (the
 //! simulated camera) and `inter` (3D IoU of the estimate from the best detection's mask cut
-//! down to the GT mask: a bleeding mask scores well there, a partial one does not);
+//! down to the GT mask: a bleeding mask scores well there, a partial one does not; with
+//! `BLEEDDIR=<dir>`, that best detection's mask is also written as `<set>_<view>_gt<k>.png`,
+//! a crop of the image with the mask's pixels inside the GT mask green, outside it red and
+//! the GT's pixels it missed blue);
 //! `DET3D=1` adds, per detection, the 3D
 //! interpenetration with the other estimates (`pin`, `pout`, `pinhi`), the depth penalty and
 //! the estimated and best GT's sorted sizes; `UNION=<r>` lists every pair of estimates
@@ -934,6 +937,45 @@ fn main() {
                         let e =
                             anybox::pipeline::estimate_box(&v.depth, &v.intrinsics, &cut, &cfg_e);
                         print!(" inter {:.2}", i3(&e));
+                        if let Ok(dir) = std::env::var("BLEEDDIR") {
+                            // Crop: mask pixels in the GT green, outside it red, GT only blue.
+                            let mut img = v.rgb.clone();
+                            let (w, _h) = (img.width() as usize, img.height() as usize);
+                            let (mut u0, mut v0, mut u1, mut v1) = (usize::MAX, usize::MAX, 0, 0);
+                            for (i, (&m, &g)) in masks[j].data.iter().zip(&gtm[k].data).enumerate()
+                            {
+                                let (u, vv) = (i % w, i / w);
+                                if m || g {
+                                    (u0, v0, u1, v1) =
+                                        (u0.min(u), v0.min(vv), u1.max(u), v1.max(vv));
+                                }
+                                let px = img.get_pixel_mut(u as u32, vv as u32);
+                                let c = match (m, g) {
+                                    (true, true) => Some([0u8, 200, 0]),
+                                    (true, false) => Some([230, 0, 0]),
+                                    (false, true) => Some([0, 0, 230]),
+                                    _ => None,
+                                };
+                                if let Some(c) = c {
+                                    for ch in 0..3 {
+                                        px[ch] = ((px[ch] as u16 + c[ch] as u16) / 2) as u8;
+                                    }
+                                }
+                            }
+                            let pad = 30;
+                            let (u0, v0) = (u0.saturating_sub(pad), v0.saturating_sub(pad));
+                            let u1 = (u1 + pad).min(img.width() as usize - 1);
+                            let v1 = (v1 + pad).min(img.height() as usize - 1);
+                            let crop = image::imageops::crop_imm(
+                                &img,
+                                u0 as u32,
+                                v0 as u32,
+                                (u1 - u0) as u32,
+                                (v1 - v0) as u32,
+                            )
+                            .to_image();
+                            let _ = crop.save(format!("{dir}/{name}_{s}_gt{k}.png"));
+                        }
                     }
                     if erode_r > 0 && j != usize::MAX {
                         print!(

@@ -5,7 +5,8 @@
 //! ≤ 0.1 with every ground truth) dropped.
 //!
 //! `cargo run --release -p anybox --example detect_rank`
-//! Env: `SEED=<u64>` (default 2026), `FRAMES=<n>` (views per set, default 24), `CSV=<path>`
+//! Env: `SEED=<u64>` (default 2026), `FRAMES=<n>` (views per set, default 24), `DETECT_CFG=<json>`
+//! (detector fields to change, as a partial `DetectConfig`), `CSV=<path>`
 //! (one row per estimate: set, frame, score, detector score, estimator score, faces,
 //! alternative, mask pixels, depth penalty, observed axes, best 3D IoU with a counted ground
 //! truth and with an ignored one, that ground truth's index).
@@ -34,7 +35,11 @@ fn main() {
             .unwrap_or(d)
     };
     let (seed, frames) = (env("SEED", 2026), env("FRAMES", 24) as usize);
-    let cfg = Config::default();
+    // `DETECT_CFG=<json>`: detector fields to change (partial `DetectConfig`).
+    let mut cfg = Config::default();
+    if let Ok(j) = std::env::var("DETECT_CFG") {
+        cfg.detect = serde_json::from_str(&j).expect("DETECT_CFG: a DetectConfig JSON");
+    }
     let est_cfg = cfg.for_detected_masks();
     let mut csv = String::from(
         "set,frame,score,det_score,est_score,faces,alternative,px,depth_penalty,observed,iou,iou_ignored,gt\n",

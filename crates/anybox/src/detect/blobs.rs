@@ -10,8 +10,10 @@
 //! direction holds two parallel planes (touching boxes of different heights joined through a
 //! flush side) is cut along the axis that separates them, recursively. Objects that fit a
 //! cuboid badly (`blob_min_fit`, `blob_min_agree`) or whose faces bend (`max_bend_deg`: a
-//! cylinder's side) are dropped; flush cartons that fit one cuboid are split in `select` by
-//! their seams, as surfaces are.
+//! cylinder's side) are dropped. One that passes is still cut where its plain colour changes
+//! across every face the cut crosses (`blob_colour_cut_delta`: two boxes of different colours
+//! stacked or end to end, sides flush); flush cartons of one colour that fit one cuboid are
+//! split in `select` by their seams, as surfaces are.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -269,6 +271,115 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<(Vector3<f64>, 
     best.map(|(_, e, s0)| (e, s0))
 }
 
+/// A colour change across the object (two boxes of different colours stacked or end to end,
+/// their sides flush, so that no step or crease parts them): the cut {p·e = s0} along a box
+/// axis, at a quantile of the object's cells between `blob_colour_cut_min_fraction` and its
+/// complement, where every face with cells on both sides changes colour by at least
+/// `blob_colour_cut_delta` (the norm of the RGB difference over the sides' mean norm), and
+/// there are two such faces at least. A side's colour is the channel-wise median of the mean
+/// colours of eight equal runs of its cells along `e`, so that tape, labels and print
+/// covering under half of a side do not count; its spread, the median distance of the runs
+/// from that colour over its norm, must stay within `blob_colour_cut_max_spread` on both
+/// sides of every face (plain colours, not printed graphics). The largest change wins.
+fn find_colour_cut(
+    g: &Grid,
+    fr: &Frame,
+    blob: &[u32],
+    cfg: &DetectConfig,
+) -> Option<(Vector3<f64>, f64)> {
+    const RUNS: usize = 8;
+    const MIN_SIDE: usize = 16;
+    let delta = cfg.blob_colour_cut_delta;
+    let frac = cfg.blob_colour_cut_min_fraction;
+    if delta <= 0.0 || blob.len() < 2 * MIN_SIDE || !(0.0..0.5).contains(&frac) {
+        return None;
+    }
+    // A box boundary must cross two faces: a one-face object has nothing to show.
+    if fr.faces.iter().filter(|f| f.len() >= 2 * MIN_SIDE).count() < 2 {
+        return None;
+    }
+    // Colour of the cells a..b of a face (sorted along the axis; `sum` its colour prefix
+    // sums) and its spread.
+    let side_colour = |sum: &[Vector3<f64>], a: usize, b: usize| -> (Vector3<f64>, f64) {
+        let n = b - a;
+        let means: Vec<Vector3<f64>> = (0..RUNS)
+            .map(|r| {
+                let (s, e) = (a + r * n / RUNS, a + (r + 1) * n / RUNS);
+                (sum[e] - sum[s]) / (e - s).max(1) as f64
+            })
+            .collect();
+        let mut out = Vector3::zeros();
+        for ch in 0..3 {
+            let mut c: Vec<f64> = means.iter().map(|m| m[ch]).collect();
+            c.sort_by(f64::total_cmp);
+            out[ch] = (c[RUNS / 2 - 1] + c[RUNS / 2]) / 2.0;
+        }
+        // Spread: the median distance of the runs from that colour, relative to it.
+        let mut dev: Vec<f64> = means.iter().map(|m| (m - out).norm()).collect();
+        dev.sort_by(f64::total_cmp);
+        let spread = (dev[RUNS / 2 - 1] + dev[RUNS / 2]) / 2.0 / out.norm().max(1.0);
+        (out, spread)
+    };
+    let mut best: Option<(f64, Vector3<f64>, f64)> = None;
+    for e in &fr.full {
+        let mut all: Vec<f64> = blob.iter().map(|&i| v3(&g.p[i as usize]).dot(e)).collect();
+        all.sort_by(f64::total_cmp);
+        // Each face's cells along e (faces of other orientations shade differently): their
+        // positions and colour prefix sums.
+        let faces: Vec<(Vec<f64>, Vec<Vector3<f64>>)> = fr
+            .faces
+            .iter()
+            .filter(|f| f.len() >= 2 * MIN_SIDE)
+            .map(|f| {
+                let mut t: Vec<(f64, u32)> = f
+                    .iter()
+                    .map(|&i| (v3(&g.p[i as usize]).dot(e), i))
+                    .collect();
+                t.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let mut sum = Vec::with_capacity(t.len() + 1);
+                sum.push(Vector3::zeros());
+                for (k, c) in t.iter().enumerate() {
+                    sum.push(sum[k] + v3(&g.c[c.1 as usize]));
+                }
+                (t.into_iter().map(|c| c.0).collect(), sum)
+            })
+            .collect();
+        let steps = 20;
+        for q in 0..=steps {
+            let q = frac + (1.0 - 2.0 * frac) * q as f64 / steps as f64;
+            let x = ((q * all.len() as f64) as usize).clamp(1, all.len() - 1);
+            let s0 = (all[x - 1] + all[x]) / 2.0;
+            let (mut weakest, mut crossed): (Option<f64>, usize) = (None, 0);
+            for (t, sum) in &faces {
+                let k = t.partition_point(|&c| c < s0);
+                if k < MIN_SIDE || t.len() - k < MIN_SIDE {
+                    continue;
+                }
+                let ((lo, slo), (hi, shi)) = (side_colour(sum, 0, k), side_colour(sum, k, t.len()));
+                // Relative to the sides' brightness: a shaded face shows the same change in
+                // fewer levels.
+                let d = (lo - hi).norm() / ((lo.norm() + hi.norm()) / 2.0).max(1.0);
+                // A printed side (graphics, not a plain box of another colour) is no evidence.
+                let d = if slo.max(shi) <= cfg.blob_colour_cut_max_spread {
+                    d
+                } else {
+                    0.0
+                };
+                weakest = Some(weakest.map_or(d, |w: f64| w.min(d)));
+                crossed += 1;
+            }
+            // Two faces at least: a box's boundary crosses all its faces that run along e,
+            // while a band of colour on one face (tape along an edge) crosses only that one.
+            if let Some(d) = weakest.filter(|&d| d >= delta && crossed >= 2) {
+                if best.is_none_or(|b| d > b.0) {
+                    best = Some((d, *e, s0));
+                }
+            }
+        }
+    }
+    best.map(|(_, e, s0)| (e, s0))
+}
+
 /// Scored candidates of the connected objects (`labels`: object index per cell, [`NONE`] for
 /// support and unlabelled cells), each object cut recursively at steps between touching
 /// boxes. Objects (or parts) with a plane fit below `blob_min_fit` are dropped.
@@ -377,6 +488,32 @@ fn object_candidates(
             || fr.bend_deg > cfg.max_bend_deg
         {
             continue;
+        }
+        // A box-like object may still be two boxes of different colours, flush.
+        if depth < cfg.blob_max_cuts {
+            if let Some((e, s0)) = find_colour_cut(g, &fr, &blob, cfg) {
+                let (lo, hi): (Vec<u32>, Vec<u32>) = blob
+                    .iter()
+                    .partition(|&&i| v3(&g.p[i as usize]).dot(&e) < s0);
+                if dbg && blob.len() > 200 {
+                    log::debug!(
+                        "blob {b}.{pi} n {} colour cut at {s0:.0}: {} + {}",
+                        blob.len(),
+                        lo.len(),
+                        hi.len()
+                    );
+                }
+                for &i in &hi {
+                    // Every cell of a part is one of the object's cells.
+                    if let Ok(k) = cells.binary_search(&i) {
+                        part[k] = next;
+                    }
+                }
+                work.push((pi, lo, depth + 1));
+                work.push((next, hi, depth + 1));
+                next += 1;
+                continue;
+            }
         }
         let face_refs: Vec<&[u32]> = fr.faces.iter().map(Vec::as_slice).collect();
         let member = |i: usize| part_of(&part, i) == Some(pi);

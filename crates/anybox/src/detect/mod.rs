@@ -18,8 +18,9 @@
 //!    irregular, too small and too large segments rejected; a cuboid fitted per group and scored
 //!    by plane fit × silhouette IoU × depth consistency (the paper's filter);
 //! 4. `blobs`: the same cuboid fit and score for every connected convex object (depth
-//!    continuity, cut at concave creases and at steps between touching boxes), which finds
-//!    isolated boxes whose faces the grouping could not tie together.
+//!    continuity, cut at concave creases, at steps between touching boxes and at changes of
+//!    plain colour across all its faces), which finds isolated boxes whose faces the grouping
+//!    could not tie together.
 //!
 //! Object-, surface- and colour-level candidates then compete by score; a coarse candidate with
 //! a seam between coplanar colour patches (flush cartons) gives way to the finer ones; what
@@ -378,6 +379,17 @@ pub struct DetectConfig {
     pub blob_step_factor: f64,
     /// ... when each plane holds at least this fraction of the face's cells. Default 0.15.
     pub blob_step_min_fraction: f64,
+    /// An object is also cut in two where its colour changes across it by at least this
+    /// much on every face the cut crosses: the norm of the RGB difference of the two sides
+    /// over their mean norm (boxes of different colours end to end or stacked with flush
+    /// sides; see `blobs`); 0 disables. Default 0.3.
+    pub blob_colour_cut_delta: f64,
+    /// ... with at least this fraction of the object's cells on either side. Default 0.15.
+    pub blob_colour_cut_min_fraction: f64,
+    /// ... and both sides plain: the colour's spread along the object (see `blobs`) at most
+    /// this. Generated boxes measure 0.01–0.06, the printed boxes of ycbv-boxes 0.1–0.3.
+    /// Default 0.1.
+    pub blob_colour_cut_max_spread: f64,
     /// At most this many successive step cuts per object. Default 6.
     pub blob_max_cuts: u32,
     /// Cells within this multiple of the plane tolerance of a support plane are cut off
@@ -507,6 +519,9 @@ impl Default for DetectConfig {
             blobs: true,
             blob_split_concave: true,
             blob_max_cuts: 6,
+            blob_colour_cut_delta: 0.35,
+            blob_colour_cut_min_fraction: 0.15,
+            blob_colour_cut_max_spread: 0.1,
             blob_step_factor: 4.0,
             blob_step_min_fraction: 0.15,
             blob_support_gap_factor: 1.5,
