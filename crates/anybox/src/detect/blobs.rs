@@ -440,80 +440,63 @@ fn object_candidates(
         let Some(fr) = frame_of(g, &blob, cfg) else {
             continue;
         };
-        if depth < cfg.blob_max_cuts {
-            if let Some((e, s0)) = find_step(g, &fr, cfg) {
-                let (mut lo, mut hi) = (Vec::new(), Vec::new());
-                for &i in &blob {
-                    if v3(&g.p[i as usize]).dot(&e) < s0 {
-                        lo.push(i);
-                    } else {
-                        hi.push(i);
-                    }
-                }
+        let step = if depth < cfg.blob_max_cuts {
+            find_step(g, &fr, cfg)
+        } else {
+            None
+        };
+        let cut = match step {
+            Some(c) => Some((c, "step")),
+            None => {
                 if dbg && blob.len() > 200 {
                     log::debug!(
-                        "blob {b}.{pi} n {} cut at {s0:.0} along {:.2} {:.2} {:.2}: {} + {}",
+                        "blob {b}.{pi} n {} faces {} fit {:.2} agree {:.2} bend {:.1}",
                         blob.len(),
-                        e.x,
-                        e.y,
-                        e.z,
-                        lo.len(),
-                        hi.len()
+                        fr.axes.len(),
+                        fr.fit,
+                        fr.agree,
+                        fr.bend_deg
                     );
                 }
-                for &i in &hi {
-                    // Every cell of a part is one of the object's cells.
-                    if let Ok(k) = cells.binary_search(&i) {
-                        part[k] = next;
-                    }
+                if fr.fit < cfg.blob_min_fit
+                    || fr.agree < cfg.blob_min_agree
+                    || fr.bend_deg > cfg.max_bend_deg
+                {
+                    continue;
                 }
-                work.push((pi, lo, depth + 1));
-                work.push((next, hi, depth + 1));
-                next += 1;
-                continue;
+                // A box-like object may still be two boxes of different colours, flush.
+                if depth < cfg.blob_max_cuts {
+                    find_colour_cut(g, &fr, &blob, cfg).map(|c| (c, "colour"))
+                } else {
+                    None
+                }
             }
-        }
-        if dbg && blob.len() > 200 {
-            log::debug!(
-                "blob {b}.{pi} n {} faces {} fit {:.2} agree {:.2} bend {:.1}",
-                blob.len(),
-                fr.axes.len(),
-                fr.fit,
-                fr.agree,
-                fr.bend_deg
-            );
-        }
-        if fr.fit < cfg.blob_min_fit
-            || fr.agree < cfg.blob_min_agree
-            || fr.bend_deg > cfg.max_bend_deg
-        {
+        };
+        if let Some(((e, s0), why)) = cut {
+            let (lo, hi): (Vec<u32>, Vec<u32>) = blob
+                .iter()
+                .partition(|&&i| v3(&g.p[i as usize]).dot(&e) < s0);
+            if dbg && blob.len() > 200 {
+                log::debug!(
+                    "blob {b}.{pi} n {} {why} cut at {s0:.0} along {:.2} {:.2} {:.2}: {} + {}",
+                    blob.len(),
+                    e.x,
+                    e.y,
+                    e.z,
+                    lo.len(),
+                    hi.len()
+                );
+            }
+            for &i in &hi {
+                // Every cell of a part is one of the object's cells.
+                if let Ok(k) = cells.binary_search(&i) {
+                    part[k] = next;
+                }
+            }
+            work.push((pi, lo, depth + 1));
+            work.push((next, hi, depth + 1));
+            next += 1;
             continue;
-        }
-        // A box-like object may still be two boxes of different colours, flush.
-        if depth < cfg.blob_max_cuts {
-            if let Some((e, s0)) = find_colour_cut(g, &fr, &blob, cfg) {
-                let (lo, hi): (Vec<u32>, Vec<u32>) = blob
-                    .iter()
-                    .partition(|&&i| v3(&g.p[i as usize]).dot(&e) < s0);
-                if dbg && blob.len() > 200 {
-                    log::debug!(
-                        "blob {b}.{pi} n {} colour cut at {s0:.0}: {} + {}",
-                        blob.len(),
-                        lo.len(),
-                        hi.len()
-                    );
-                }
-                for &i in &hi {
-                    // Every cell of a part is one of the object's cells.
-                    if let Ok(k) = cells.binary_search(&i) {
-                        part[k] = next;
-                    }
-                }
-                work.push((pi, lo, depth + 1));
-                work.push((next, hi, depth + 1));
-                next += 1;
-                continue;
-            }
         }
         let face_refs: Vec<&[u32]> = fr.faces.iter().map(Vec::as_slice).collect();
         let member = |i: usize| part_of(&part, i) == Some(pi);

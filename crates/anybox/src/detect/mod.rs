@@ -831,17 +831,12 @@ fn residual_candidates(
         for &i in &c.cells {
             taken[i as usize] = true;
         }
-        if log::log_enabled!(log::Level::Debug) {
-            log::debug!(
-                "residual score {:.3} faces {} cells {} size {:.0} {:.0} {:.0}",
-                c.score,
-                c.n_faces,
-                c.cells.len(),
-                c.bx.size_mm.x,
-                c.bx.size_mm.y,
-                c.bx.size_mm.z
-            );
-        }
+        log::debug!(
+            "residual score {:.3} faces {} cells {}",
+            c.score,
+            c.n_faces,
+            c.cells.len()
+        );
         out.push(c);
     }
     out

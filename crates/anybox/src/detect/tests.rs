@@ -1173,6 +1173,39 @@ fn a_top_cut_across_its_short_side_is_one_carton() {
     assert!(split < 0.5, "best mask IoU without isolated pairs {split}");
 }
 
+/// The visible mask of the box of `view` whose sorted sizes are `dims` (mm, within 1).
+fn mask_of_box(view: &anybox_synth::SynthView, dims: [f64; 3]) -> Mask {
+    view.boxes
+        .iter()
+        .find(|b| {
+            let mut s = [b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z];
+            s.sort_by(f64::total_cmp);
+            s.iter().zip(dims).all(|(a, d)| (a - d).abs() < 1.0)
+        })
+        .expect("the box is in the scene")
+        .mask_visib
+        .clone()
+}
+
+/// Best mask IoU with each of `masks` among the primary detections of `view` (alternatives
+/// left out) under `cfg`.
+fn best_primary_ious(
+    view: &anybox_synth::SynthView,
+    masks: &[&Mask],
+    cfg: &DetectConfig,
+) -> Vec<f64> {
+    let dets = detect_boxes(Some(&view.rgb), &view.depth, &view.intrinsics, cfg).unwrap();
+    masks
+        .iter()
+        .map(|m| {
+            dets.iter()
+                .filter(|d| !d.alternative)
+                .map(|d| iou(&d.mask, m))
+                .fold(0.0, f64::max)
+        })
+        .collect()
+}
+
 #[test]
 fn a_box_standing_on_a_box_of_another_colour_is_not_one_carton() {
     // Generated table scene (seed 2026, scene 23): a dark 140 × 206 × 334 mm carton stands on
@@ -1180,32 +1213,11 @@ fn a_box_standing_on_a_box_of_another_colour_is_not_one_carton() {
     // stops at a side face, as a carton's own flap seam does, so the flap check kept the two
     // as one candidate; a flap seam has the same colour on both sides.
     let v = table_d0_view(23);
-    let mask_of = |dims: [f64; 3]| {
-        v.boxes
-            .iter()
-            .find(|b| {
-                let mut s = [b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z];
-                s.sort_by(f64::total_cmp);
-                s.iter().zip(dims).all(|(a, d)| (a - d).abs() < 1.0)
-            })
-            .expect("the box is in the scene")
-            .mask_visib
-            .clone()
-    };
-    let (dark, grey) = (
-        mask_of([140.0, 206.0, 334.0]),
-        mask_of([191.0, 196.0, 214.0]),
-    );
-    // Best mask IoU with each box among the primary detections (alternatives left out).
+    let dark = mask_of_box(&v, [140.0, 206.0, 334.0]);
+    let grey = mask_of_box(&v, [191.0, 196.0, 214.0]);
     let best = |cfg: &DetectConfig| {
-        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
-        let of = |m: &Mask| {
-            dets.iter()
-                .filter(|d| !d.alternative)
-                .map(|d| iou(&d.mask, m))
-                .fold(0.0, f64::max)
-        };
-        (of(&dark), of(&grey))
+        let b = best_primary_ious(&v, &[&dark, &grey], cfg);
+        (b[0], b[1])
     };
     let (d, g) = best(&DetectConfig::default());
     assert!(d > 0.9 && g > 0.8, "best mask IoU: dark {d}, grey {g}");
@@ -1226,34 +1238,15 @@ fn a_small_box_on_a_larger_one_is_found_in_what_the_larger_left_of_their_object(
     // carton behind a standing one. Depth joins it to the carton under it (one object); the
     // carton is selected, and the small box had no candidate of its own.
     let v = table_d0_view(2);
-    let small = v
-        .boxes
-        .iter()
-        .find(|b| {
-            let mut s = [b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z];
-            s.sort_by(f64::total_cmp);
-            s.iter()
-                .zip([46.0, 50.0, 107.0])
-                .all(|(a, d)| (a - d).abs() < 1.0)
-        })
-        .expect("the small box is in the scene")
-        .mask_visib
-        .clone();
-    let best = |cfg: &DetectConfig| {
-        detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg)
-            .unwrap()
-            .iter()
-            .filter(|d| !d.alternative)
-            .map(|d| iou(&d.mask, &small))
-            .fold(0.0, f64::max)
-    };
-    let with = best(&DetectConfig::default());
+    let small = mask_of_box(&v, [46.0, 50.0, 107.0]);
+    let with = best_primary_ious(&v, &[&small], &DetectConfig::default())[0];
     assert!(with > 0.6, "best mask IoU with the small box: {with}");
     // Premise: without the residual pass nothing covers it.
-    let without = best(&DetectConfig {
+    let off = DetectConfig {
         residual_score_factor: 0.0,
         ..DetectConfig::default()
-    });
+    };
+    let without = best_primary_ious(&v, &[&small], &off)[0];
     assert!(without < 0.2, "without the residual pass: {without}");
 }
 
@@ -1263,33 +1256,14 @@ fn a_stick_standing_on_a_box_of_another_colour_is_cut_off_it() {
     // purple box of about its cross-section, their sides flush: one connected, box-like
     // object with no step or crease between the two, only a change of colour.
     let v = table_d0_view(21);
-    let stick = v
-        .boxes
-        .iter()
-        .find(|b| {
-            let mut s = [b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z];
-            s.sort_by(f64::total_cmp);
-            s.iter()
-                .zip([40.0, 43.0, 258.0])
-                .all(|(a, d)| (a - d).abs() < 1.0)
-        })
-        .expect("the stick is in the scene")
-        .mask_visib
-        .clone();
-    let best = |cfg: &DetectConfig| {
-        detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg)
-            .unwrap()
-            .iter()
-            .filter(|d| !d.alternative)
-            .map(|d| iou(&d.mask, &stick))
-            .fold(0.0, f64::max)
-    };
-    let with = best(&DetectConfig::default());
+    let stick = mask_of_box(&v, [40.0, 43.0, 258.0]);
+    let with = best_primary_ious(&v, &[&stick], &DetectConfig::default())[0];
     assert!(with > 0.8, "best mask IoU with the stick: {with}");
     // Premise: without the colour cut the best detection takes in the box under it.
-    let without = best(&DetectConfig {
+    let off = DetectConfig {
         blob_colour_cut_delta: 0.0,
         ..DetectConfig::default()
-    });
+    };
+    let without = best_primary_ious(&v, &[&stick], &off)[0];
     assert!(without < 0.65, "without the colour cut: {without}");
 }
