@@ -778,10 +778,10 @@ fn residual_candidates(
             excl[i as usize] = true;
         }
     }
-    let (mut labels, objs) = regions::segment(g, joins, Cues::Depth, Some(&excl), cfg);
+    let (mut labels, n_objects) = regions::label(g, joins, Cues::Depth, Some(&excl), cfg);
     // Only what touches a selected candidate is new: any other object is whole, and was tried
     // (and lost) in the pool.
-    let mut touches = vec![false; objs.len()];
+    let mut touches = vec![false; n_objects];
     for c in chosen {
         for &i in &c.cells {
             let (u, v) = (i as usize % g.w, i as usize / g.w);
@@ -804,7 +804,7 @@ fn residual_candidates(
             }
         }
     }
-    let mut n_cells = vec![0u32; objs.len()];
+    let mut n_cells = vec![0u32; n_objects];
     for &l in &labels {
         if l != regions::NONE {
             n_cells[l as usize] += 1;
@@ -820,21 +820,14 @@ fn residual_candidates(
             *x = true;
         }
     }
-    let c = blobs::blob_candidates(g, &labels, objs.len(), &excl, cfg);
+    let c = blobs::blob_candidates(g, &labels, n_objects, &excl, cfg);
     let min = cfg.min_score * cfg.residual_score_factor;
     let c = boxes::drop_support_fragments(g, c, planes, cfg);
     let mut taken = vec![false; g.z.len()];
     let mut out = Vec::new();
     for c in c {
-        if c.score < min {
+        if c.score < min || !claim(&c, &mut taken, cfg) {
             continue;
-        }
-        let overlap = c.cells.iter().filter(|&&i| taken[i as usize]).count();
-        if overlap as f64 > cfg.max_overlap * c.cells.len() as f64 {
-            continue;
-        }
-        for &i in &c.cells {
-            taken[i as usize] = true;
         }
         log::debug!(
             "residual score {:.3} faces {} cells {}",
@@ -949,8 +942,8 @@ fn object_labels(
             on_support[i] || (g.z[i] > 0.0 && planes.iter().any(|pl| near_plane(g, pl, i, cfg)))
         })
         .collect();
-    let (labels, objs) = regions::segment(g, joins, Cues::Depth, Some(&off), cfg);
-    (labels, off, objs.len())
+    let (labels, n_objects) = regions::label(g, joins, Cues::Depth, Some(&off), cfg);
+    (labels, off, n_objects)
 }
 
 /// Diagnostic view of the detector's first stages: per-pixel labels (row-major, frame size,
@@ -968,7 +961,7 @@ pub fn segment_labels(
     let joins = regions::joins(&g, rgb.is_some(), &g.seam, cfg);
     let (geo_labels, surfaces) = regions::segment(&g, &joins, Cues::Geometry, None, cfg);
     let (on_support, planes) = boxes::support_mask(&g, &geo_labels, &surfaces, cfg);
-    let (geo_labels, _) = regions::segment(&g, &joins, Cues::Geometry, Some(&on_support), cfg);
+    let (geo_labels, _) = regions::label(&g, &joins, Cues::Geometry, Some(&on_support), cfg);
     let (obj_labels, _, _) = object_labels(&g, &joins, &on_support, &planes, cfg);
     let (mut col_labels, patches) = regions::segment(&g, &joins, Cues::All, Some(&on_support), cfg);
     lines::cut_along_seam_lines(&g, &mut col_labels, patches.len(), cfg);
@@ -1284,8 +1277,7 @@ fn select(
     let mut taken = vec![false; g.z.len()];
     let mut out = Vec::new();
     for (c, src) in all {
-        let overlap = c.cells.iter().filter(|&&i| taken[i as usize]).count();
-        let skip = overlap as f64 > cfg.max_overlap * c.cells.len() as f64;
+        let skip = !claim(&c, &mut taken, cfg);
         if dbg {
             let (mut u0, mut v0, mut u1, mut v1) = (usize::MAX, usize::MAX, 0, 0);
             for &i in &c.cells {
@@ -1303,16 +1295,25 @@ fn select(
                 c.bx.size_mm.z
             );
         }
-        if skip {
-            continue;
+        if !skip {
+            out.push(c);
         }
-        for &i in &c.cells {
-            taken[i as usize] = true;
-        }
-        out.push(c);
     }
     let alts = alternatives(g, &out, lost, cfg);
     (out, alts)
+}
+
+/// Greedy overlap suppression, one candidate at a time (best first): takes `c`'s cells into
+/// `taken` and returns true, unless more than `max_overlap` of them are taken already.
+fn claim(c: &boxes::Raw, taken: &mut [bool], cfg: &DetectConfig) -> bool {
+    let overlap = c.cells.iter().filter(|&&i| taken[i as usize]).count();
+    if overlap as f64 > cfg.max_overlap * c.cells.len() as f64 {
+        return false;
+    }
+    for &i in &c.cells {
+        taken[i as usize] = true;
+    }
+    true
 }
 
 /// The alternative readings among the candidates that lost a split decision (see

@@ -276,6 +276,20 @@ pub(crate) fn segment(
     exclude: Option<&[bool]>,
     cfg: &DetectConfig,
 ) -> (Vec<u32>, Vec<Region>) {
+    let (labels, n_regions) = label(g, joins, cues, exclude, cfg);
+    let regions = fit_regions(g, &labels, n_regions, cfg);
+    (labels, regions)
+}
+
+/// The labels of [`segment`] and how many regions there are, without the plane fits (for
+/// callers that need only the connected pieces).
+pub(crate) fn label(
+    g: &Grid,
+    joins: &Joins,
+    cues: Cues,
+    exclude: Option<&[bool]>,
+    cfg: &DetectConfig,
+) -> (Vec<u32>, usize) {
     let (w, h) = (g.w, g.h);
     let bits = match cues {
         Cues::Depth => &joins.depth,
@@ -301,8 +315,7 @@ pub(crate) fn segment(
     }
     let (labels, n_regions) =
         dsu.label_large(cfg.min_region_cells.max(3), |i| g.z[i] > 0.0 && !out(i));
-    let regions = fit_regions(g, &labels, n_regions as usize, cfg);
-    (labels, regions)
+    (labels, n_regions as usize)
 }
 
 /// Running first and second moments of 3D points (the upper triangle only: a full outer
