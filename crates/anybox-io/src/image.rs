@@ -95,6 +95,20 @@ impl Mask {
         self.data.iter().filter(|b| **b).count()
     }
 
+    /// Intersection over union of the two masks' pixels, 0..1; 0 when the masks differ in size
+    /// or both are empty.
+    pub fn iou(&self, other: &Mask) -> f64 {
+        if (self.width, self.height) != (other.width, other.height) {
+            return 0.0;
+        }
+        let (mut inter, mut union) = (0usize, 0usize);
+        for (&a, &b) in self.data.iter().zip(&other.data) {
+            inter += usize::from(a && b);
+            union += usize::from(a || b);
+        }
+        inter as f64 / union.max(1) as f64
+    }
+
     /// Pixel bounding box `(u_min, v_min, u_max, v_max)`, inclusive; `None` for an empty mask.
     pub fn bbox(&self) -> Option<(u32, u32, u32, u32)> {
         // Row by row: the first and last set pixel of each row (the estimator calls this per

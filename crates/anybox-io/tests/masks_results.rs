@@ -15,6 +15,29 @@ use anybox_io::{DepthMap, Mask};
 use proptest::prelude::*;
 
 #[test]
+fn mask_iou_of_overlapping_rectangles_is_the_closed_form() {
+    // 10 × 4 and 6 × 6 px rectangles on a 20 × 10 image, overlapping in 4 × 4 px:
+    // IoU = 16 / (40 + 36 − 16) = 16 / 60.
+    let rect = |u0: u32, v0: u32, w: u32, h: u32| {
+        let mut m = Mask::empty(20, 10);
+        for v in v0..v0 + h {
+            for u in u0..u0 + w {
+                m.set(u, v, true);
+            }
+        }
+        m
+    };
+    let (a, b) = (rect(0, 0, 10, 4), rect(6, 0, 6, 6));
+    assert!((a.iou(&b) - 16.0 / 60.0).abs() < 1e-12, "{}", a.iou(&b));
+    assert_eq!(a.iou(&b), b.iou(&a));
+    assert_eq!(a.iou(&a), 1.0);
+    assert_eq!(a.iou(&rect(12, 5, 3, 3)), 0.0);
+    assert_eq!(Mask::empty(20, 10).iou(&Mask::empty(20, 10)), 0.0);
+    // Masks of different sizes share no pixels.
+    assert_eq!(a.iou(&Mask::empty(10, 20)), 0.0);
+}
+
+#[test]
 fn rle_string_hand_worked_example() {
     // Worked by hand from pycocotools' rleToString (see masks.rs docs):
     // 100 → groups 4 (more), 3 → 'T' '3'; 200 → 8 (more), 6 → 'X' '6';

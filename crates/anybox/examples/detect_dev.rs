@@ -141,7 +141,7 @@ impl Tally {
 fn best_mask_iou(dets: &[Detection], gt: &Mask) -> Option<(usize, f64)> {
     dets.iter()
         .enumerate()
-        .map(|(j, d)| (j, mask_iou(&d.mask, gt)))
+        .map(|(j, d)| (j, d.mask.iou(gt)))
         .max_by(|a, b| a.1.total_cmp(&b.1))
 }
 
@@ -316,15 +316,6 @@ fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], objs: Option<&[u32]>, ta
     if (0..n).all(|k| !want[k] || matched[k]) {
         tally.frames_all_found += 1;
     }
-}
-
-fn mask_iou(a: &Mask, b: &Mask) -> f64 {
-    let (mut i, mut u) = (0usize, 0usize);
-    for (&x, &y) in a.data.iter().zip(&b.data) {
-        i += (x && y) as usize;
-        u += (x || y) as usize;
-    }
-    i as f64 / u.max(1) as f64
 }
 
 fn dump(path: &Path, rgb: &image::RgbImage, dets: &[Detection], gts: &[(Mask, f64)]) {
@@ -1076,7 +1067,7 @@ fn main() {
                             's' => 1,
                             _ => 2,
                         };
-                        let iou = mask_iou(&d.mask, &b.mask_visib);
+                        let iou = d.mask.iou(&b.mask_visib);
                         if iou > best[l].0 {
                             best[l] = (iou, d.score, d.n_faces);
                         }

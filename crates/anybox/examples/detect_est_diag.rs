@@ -20,19 +20,9 @@
 use anybox::config::Config;
 use anybox::detect::detect_boxes;
 use anybox::geom::iou::{iou, IouMethod};
-use anybox::io::Mask;
 use anybox::observation::observe;
 use anybox::pose::estimate_pose;
 use anybox::synth::{generate_view, Layout, NoiseModel, SynthConfig};
-
-fn mask_iou(a: &Mask, b: &Mask) -> f64 {
-    let (mut i, mut u) = (0usize, 0usize);
-    for (x, y) in a.data.iter().zip(&b.data) {
-        i += usize::from(*x && *y);
-        u += usize::from(*x || *y);
-    }
-    i as f64 / u.max(1) as f64
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let env = |k: &str, d: u64| {
@@ -74,7 +64,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             let best = dets
                 .iter()
-                .map(|d| (mask_iou(&d.mask, &g.mask_visib), &d.mask))
+                .map(|d| (d.mask.iou(&g.mask_visib), &d.mask))
                 .max_by(|a, b| a.0.total_cmp(&b.0));
             let Some((mi, det)) = best.filter(|b| b.0 >= 0.5) else {
                 continue;

@@ -212,15 +212,6 @@ fn shared_px(a: &Mask, b: &Mask) -> usize {
         .count()
 }
 
-fn iou(a: &Mask, b: &Mask) -> f64 {
-    let (mut i, mut u) = (0usize, 0usize);
-    for (x, y) in a.data.iter().zip(&b.data) {
-        i += (*x && *y) as usize;
-        u += (*x || *y) as usize;
-    }
-    i as f64 / u.max(1) as f64
-}
-
 fn table_box(s: &Scene) -> OrientedBox {
     // Yawed by 25° about the table normal.
     s.standing_box(25.0, -60.0, 0.0, Vector3::new(200.0, 150.0, 100.0))
@@ -241,12 +232,12 @@ fn box_on_table_is_found_with_its_faces() {
             .collect::<Vec<_>>()
     );
     let d = &dets[0];
-    assert!(iou(&d.mask, &gt) > 0.85, "mask IoU {}", iou(&d.mask, &gt));
+    assert!(d.mask.iou(&gt) > 0.85, "mask IoU {}", d.mask.iou(&gt));
     assert!(d.n_faces >= 2, "top and sides grouped: {} faces", d.n_faces);
     assert!(d.score > 0.5 && d.score <= 1.0, "score {}", d.score);
     // Depth alone finds it too.
     let dets = detect_boxes(None, &depth, &k(), &DetectConfig::default()).unwrap();
-    assert!(dets.iter().any(|d| iou(&d.mask, &gt) > 0.85));
+    assert!(dets.iter().any(|d| d.mask.iou(&gt) > 0.85));
 }
 
 #[test]
@@ -261,7 +252,7 @@ fn candidate_pool_holds_the_box_at_every_level_and_the_detection_comes_from_it()
         let best = pool
             .iter()
             .filter(|(src, _)| *src == level)
-            .map(|(_, d)| iou(&d.mask, &gt))
+            .map(|(_, d)| d.mask.iou(&gt))
             .fold(0.0, f64::max);
         assert!(best > 0.7, "level {level}: best mask IoU {best}");
     }
@@ -386,7 +377,7 @@ fn touching_pallet_cartons_come_out_separately() {
         }
         for b in v.boxes.iter().filter(|b| b.visib_fract >= 0.5) {
             n_gt += 1;
-            found += dets.iter().any(|d| iou(&d.mask, &b.mask_visib) > 0.5) as usize;
+            found += dets.iter().any(|d| d.mask.iou(&b.mask_visib) > 0.5) as usize;
         }
     }
     eprintln!("pallet: {found} of {n_gt} cartons found, {merged} merging detections");
@@ -519,11 +510,11 @@ fn flat_carton_with_flap_seam_is_one_box() {
     let dets = detect_boxes(Some(&rgb), &depth, &k(), &DetectConfig::default()).unwrap();
     let found: Vec<_> = dets
         .iter()
-        .map(|d| (d.score, d.n_faces, iou(&d.mask, &gt)))
+        .map(|d| (d.score, d.n_faces, d.mask.iou(&gt)))
         .collect();
     assert!(
         dets.iter()
-            .any(|d| iou(&d.mask, &gt) > 0.85 && d.n_faces >= 2),
+            .any(|d| d.mask.iou(&gt) > 0.85 && d.n_faces >= 2),
         "one carton with its side: {found:?}"
     );
     // Premise: without the flap-seam check (and without pairing halves) the seam splits it
@@ -537,14 +528,14 @@ fn flat_carton_with_flap_seam_is_one_box() {
     assert!(
         !dets
             .iter()
-            .any(|d| !d.alternative && iou(&d.mask, &gt) > 0.85),
+            .any(|d| !d.alternative && d.mask.iou(&gt) > 0.85),
         "the seam no longer splits without the check: premise gone"
     );
     // The whole carton lost that split decision: it comes back as an alternative reading,
     // scored below the halves that won.
     let whole = dets
         .iter()
-        .find(|d| d.alternative && iou(&d.mask, &gt) > 0.85)
+        .find(|d| d.alternative && d.mask.iou(&gt) > 0.85)
         .expect("the unsplit carton as an alternative");
     assert!(whole.n_faces >= 2);
     assert!(dets
@@ -623,7 +614,7 @@ fn touching_plain_boxes_are_not_taken_for_halves() {
         (0..2)
             .map(|k| {
                 let gt = mask_of(&owner, k as u8);
-                dets.iter().map(|d| iou(&d.mask, &gt)).fold(0.0, f64::max)
+                dets.iter().map(|d| d.mask.iou(&gt)).fold(0.0, f64::max)
             })
             .collect()
     };
@@ -661,7 +652,7 @@ fn flap_seam_halves_pair_into_whole_tops_seen_from_above() {
         (0..3)
             .map(|k| {
                 let gt = mask_of(&owner, k as u8);
-                dets.iter().map(|d| iou(&d.mask, &gt)).fold(0.0, f64::max)
+                dets.iter().map(|d| d.mask.iou(&gt)).fold(0.0, f64::max)
             })
             .collect()
     };
@@ -703,7 +694,7 @@ fn touching_boxes_of_different_heights_come_out_separately() {
     let dets = detect_boxes(Some(&rgb), &depth, &k(), &cfg).unwrap();
     let best: Vec<f64> = gts
         .iter()
-        .map(|g| dets.iter().map(|d| iou(&d.mask, g)).fold(0.0, f64::max))
+        .map(|g| dets.iter().map(|d| d.mask.iou(g)).fold(0.0, f64::max))
         .collect();
     assert!(
         best.iter().all(|&b| b > 0.8),
@@ -777,7 +768,7 @@ fn small_lone_faces_are_dropped() {
         detect_boxes(Some(&rgb), &depth, &k(), cfg)
             .unwrap()
             .iter()
-            .filter(|d| iou(&d.mask, &gt) > 0.3)
+            .filter(|d| d.mask.iou(&gt) > 0.3)
             .map(|d| (d.n_faces, d.mask.count()))
             .collect::<Vec<_>>()
     };
@@ -862,7 +853,7 @@ fn best_iou_in_table_d0_view(
         detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg)
             .unwrap()
             .iter()
-            .map(|d| iou(&d.mask, &gt))
+            .map(|d| d.mask.iou(&gt))
             .fold(0.0, f64::max)
     }
 }
@@ -964,7 +955,7 @@ fn best_mask_ious(v: &anybox_synth::SynthView, cfg: &DetectConfig) -> Vec<f64> {
         .iter()
         .map(|b| {
             dets.iter()
-                .map(|d| iou(&d.mask, &b.mask_visib))
+                .map(|d| d.mask.iou(&b.mask_visib))
                 .fold(0.0, f64::max)
         })
         .collect()
@@ -1056,9 +1047,9 @@ fn a_wall_behind_the_table_is_not_taken_for_the_floor() {
     // The image's up rules the wall out: the box comes first, and no detection is table top.
     let dets = detect_boxes(Some(&rgb), &depth, &kk, &DetectConfig::default()).unwrap();
     assert!(
-        iou(&dets[0].mask, &gt) > 0.85,
+        dets[0].mask.iou(&gt) > 0.85,
         "box first: IoU {:.2}",
-        iou(&dets[0].mask, &gt)
+        dets[0].mask.iou(&gt)
     );
     for d in &dets {
         assert!(
@@ -1094,7 +1085,11 @@ fn a_one_face_detection_takes_in_its_thin_side_faces() {
         let d = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg)
             .unwrap()
             .into_iter()
-            .max_by(|a, b| iou(&a.mask, &gt.mask_visib).total_cmp(&iou(&b.mask, &gt.mask_visib)))
+            .max_by(|a, b| {
+                a.mask
+                    .iou(&gt.mask_visib)
+                    .total_cmp(&b.mask.iou(&gt.mask_visib))
+            })
             .expect("detections");
         let est = crate::pipeline::estimate_box(
             &v.depth,
@@ -1108,7 +1103,7 @@ fn a_one_face_detection_takes_in_its_thin_side_faces() {
         (d, prec, iou3d)
     };
     let (d, prec, iou3d) = best(&DetectConfig::default());
-    let m = iou(&d.mask, &gt.mask_visib);
+    let m = d.mask.iou(&gt.mask_visib);
     assert_eq!(d.n_faces, 1);
     assert!(
         m > 0.9 && prec > 0.95,
@@ -1120,7 +1115,7 @@ fn a_one_face_detection_takes_in_its_thin_side_faces() {
         side_strip_max_mm: 0.0,
         ..DetectConfig::default()
     });
-    let m = iou(&d.mask, &gt.mask_visib);
+    let m = d.mask.iou(&gt.mask_visib);
     assert!(m < 0.5, "mask IoU without strips {m:.2}");
     assert!(iou3d < 0.5, "3D IoU without strips {iou3d:.2}");
 }
@@ -1200,7 +1195,7 @@ fn best_primary_ious(
         .map(|m| {
             dets.iter()
                 .filter(|d| !d.alternative)
-                .map(|d| iou(&d.mask, m))
+                .map(|d| d.mask.iou(m))
                 .fold(0.0, f64::max)
         })
         .collect()
