@@ -165,64 +165,71 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
     let same = |i: usize, j: usize| -> bool {
         g.z[i] > 0.0 && g.z[j] > 0.0 && (g.z[i] - g.z[j]).abs() <= jump_tol(cfg, g.z[i].min(g.z[j]))
     };
-    // The pair (i, j = i + one step) along one axis; `back` / `fwd` walk one cell outwards.
-    let judge = |i: usize,
-                 j: usize,
-                 back: &dyn Fn(usize) -> Option<usize>,
-                 fwd: &dyn Fn(usize) -> Option<usize>|
-     -> (bool, bool, bool) {
-        if !same(i, j) {
-            return (false, false, false);
-        }
-        // Flying pixels (depth mixed between a near and a far surface) would bridge the jump
-        // one small step at a time: also test the cells one outside the pair.
-        if let (Some(a), Some(b)) = (back(i), fwd(j)) {
-            if g.z[a] > 0.0
-                && g.z[b] > 0.0
-                && (g.z[a] - g.z[b]).abs() > 1.5 * jump_tol(cfg, g.z[a].min(g.z[b]))
-            {
+    // The pair (i, j = i + `stride`) along one axis, with `n_back` grid cells before i and
+    // `n_fwd` beyond j on that axis (counted by the caller: no modulo per step outwards).
+    let judge =
+        |i: usize, j: usize, stride: usize, n_back: usize, n_fwd: usize| -> (bool, bool, bool) {
+            if !same(i, j) {
                 return (false, false, false);
             }
-        }
-        // Normals compared r cells outside the pair, staying on the surface.
-        let (mut a, mut b) = (i, j);
-        for _ in 0..r {
-            match back(a) {
-                Some(x) if same(a, x) => a = x,
-                _ => break,
+            // Flying pixels (depth mixed between a near and a far surface) would bridge the jump
+            // one small step at a time: also test the cells one outside the pair.
+            if n_back > 0 && n_fwd > 0 {
+                let (a, b) = (i - stride, j + stride);
+                if g.z[a] > 0.0
+                    && g.z[b] > 0.0
+                    && (g.z[a] - g.z[b]).abs() > 1.5 * jump_tol(cfg, g.z[a].min(g.z[b]))
+                {
+                    return (false, false, false);
+                }
             }
-        }
-        for _ in 0..r {
-            match fwd(b) {
-                Some(x) if same(b, x) => b = x,
-                _ => break,
+            // Normals compared r cells outside the pair, staying on the surface.
+            let (mut a, mut b) = (i, j);
+            for _ in 0..r.min(n_back) {
+                if !same(a, a - stride) {
+                    break;
+                }
+                a -= stride;
             }
-        }
-        let (na, nb) = (&g.n[a], &g.n[b]);
-        let known = dot(na, na) > 0.5 && dot(nb, nb) > 0.5;
-        if known && dot(na, nb) < cos_n {
-            // A crease. Objects join across convex creases (a box's own edges) and split at
-            // concave ones (where two boxes, or a box and anything else, meet):
-            // (n_a − n_b)·(p_a − p_b) > 0 for a convex fold with normals facing the camera.
-            let (pa, pb) = (&g.p[a], &g.p[b]);
-            let conv = (na[0] - nb[0]) * (pa[0] - pb[0])
-                + (na[1] - nb[1]) * (pa[1] - pb[1])
-                + (na[2] - nb[2]) * (pa[2] - pb[2]);
-            let convex = !cfg.blob_split_concave || conv > 0.0;
-            return (convex, false, false);
-        }
-        if seam[i] || seam[j] {
-            return (true, true, false);
-        }
-        if has_rgb {
-            let a1 = back(i).filter(|&x| g.z[x] > 0.0).unwrap_or(i);
-            let b1 = fwd(j).filter(|&x| g.z[x] > 0.0).unwrap_or(j);
-            if col_dist2(&g.c[a1], &g.c[b1]) > col2 {
+            for _ in 0..r.min(n_fwd) {
+                if !same(b, b + stride) {
+                    break;
+                }
+                b += stride;
+            }
+            let (na, nb) = (&g.n[a], &g.n[b]);
+            let known = dot(na, na) > 0.5 && dot(nb, nb) > 0.5;
+            if known && dot(na, nb) < cos_n {
+                // A crease. Objects join across convex creases (a box's own edges) and split at
+                // concave ones (where two boxes, or a box and anything else, meet):
+                // (n_a − n_b)·(p_a − p_b) > 0 for a convex fold with normals facing the camera.
+                let (pa, pb) = (&g.p[a], &g.p[b]);
+                let conv = (na[0] - nb[0]) * (pa[0] - pb[0])
+                    + (na[1] - nb[1]) * (pa[1] - pb[1])
+                    + (na[2] - nb[2]) * (pa[2] - pb[2]);
+                let convex = !cfg.blob_split_concave || conv > 0.0;
+                return (convex, false, false);
+            }
+            if seam[i] || seam[j] {
                 return (true, true, false);
             }
-        }
-        (true, true, true)
-    };
+            if has_rgb {
+                let a1 = if n_back > 0 && g.z[i - stride] > 0.0 {
+                    i - stride
+                } else {
+                    i
+                };
+                let b1 = if n_fwd > 0 && g.z[j + stride] > 0.0 {
+                    j + stride
+                } else {
+                    j
+                };
+                if col_dist2(&g.c[a1], &g.c[b1]) > col2 {
+                    return (true, true, false);
+                }
+            }
+            (true, true, true)
+        };
     // Rows in parallel: each cell's bits depend on the grid only.
     let rows: Vec<[Vec<u8>; 3]> = (0..h)
         .into_par_iter()
@@ -234,17 +241,13 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
                     continue;
                 }
                 if u + 1 < w {
-                    let back = |x: usize| (x % w > 0).then(|| x - 1);
-                    let fwd = |x: usize| (x % w + 1 < w).then(|| x + 1);
-                    let (d, a, b) = judge(i, i + 1, &back, &fwd);
+                    let (d, a, b) = judge(i, i + 1, 1, u, w - u - 2);
                     depth[u] |= d as u8;
                     geo[u] |= a as u8;
                     all[u] |= b as u8;
                 }
                 if v + 1 < h {
-                    let back = |x: usize| (x >= w).then(|| x - w);
-                    let fwd = |x: usize| (x + w < w * h).then(|| x + w);
-                    let (d, a, b) = judge(i, i + w, &back, &fwd);
+                    let (d, a, b) = judge(i, i + w, w, v, h - v - 2);
                     depth[u] |= (d as u8) << 1;
                     geo[u] |= (a as u8) << 1;
                     all[u] |= (b as u8) << 1;
