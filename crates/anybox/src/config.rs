@@ -52,6 +52,9 @@ impl Config {
         c.scale.mode = ScaleMode::EarlyStopping;
         c.context.enabled = false;
         c.observation.retry_below_score = 0.0;
+        // The paper gives no number of refined hypotheses; its rows keep the 4 they were
+        // measured with.
+        c.pose.top_k = 4;
         c
     }
 
@@ -138,6 +141,7 @@ mod tests {
         assert_eq!(c.scale.tau_px, 10.0);
         assert!(!c.context.enabled);
         assert!(c.pose.depth_filter.enabled);
+        assert_eq!(c.pose.top_k, 4);
         assert_eq!(
             c.observation.retry_below_score, 0.0,
             "no second try in the paper"

@@ -79,7 +79,9 @@ pub struct PoseConfig {
     /// Translation-only alignment steps applied to every hypothesis before the coarse score.
     /// Default 2; 0 scores hypotheses where the placement rule put them.
     pub coarse_align_iters: usize,
-    /// Hypotheses refined by ICP. Default 4.
+    /// Hypotheses refined by ICP. Default 2: refining 4 (the setting until 2026-12-01, kept by
+    /// [`crate::config::Config::paper`]) took ~9 % more instructions per frame and scored
+    /// lower on the generated benchmark (README, "Measured results").
     pub top_k: usize,
     /// Axes with `|axis · viewdir|` below this get placement variants (see
     /// [`ScoringContext::placement_variants`]). Default 0.35 (faces > 70° from the view ray).
@@ -127,7 +129,7 @@ impl Default for PoseConfig {
             coarse_points: 150,
             coarse_trunc_mm: 20.0,
             coarse_align_iters: 2,
-            top_k: 4,
+            top_k: 2,
             variant_cos: 0.35,
             noise_scale: 1.0,
             prior_gate_deg: 20.0,
