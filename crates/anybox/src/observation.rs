@@ -473,6 +473,11 @@ impl MaskRows {
             .take(mask.height as usize)
             .enumerate()
         {
+            // Most rows of a full-frame instance mask are empty: a branch-free OR (which
+            // vectorises) rejects them faster than the early-exit search (as `Mask::bbox`).
+            if !row.iter().fold(false, |a, &b| a | b) {
+                continue;
+            }
             if let Some(a) = row.iter().position(|b| *b) {
                 // `a` exists, so `rposition` finds at least that pixel.
                 let b = row.iter().rposition(|b| *b).unwrap_or(a);

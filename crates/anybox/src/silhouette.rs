@@ -199,12 +199,21 @@ pub fn mask_pixels(mask: &Mask) -> Vec<[u32; 2]> {
     if w == 0 {
         return Vec::new();
     }
-    mask.data
-        .iter()
-        .enumerate()
-        .filter(|(_, b)| **b)
-        .map(|(i, _)| [(i % w) as u32, (i / w) as u32])
-        .collect()
+    let mut out = Vec::new();
+    for (v, row) in mask.data.chunks(w).enumerate() {
+        // Most rows of a full-frame instance mask are empty: a branch-free OR (which
+        // vectorises) skips them.
+        if !row.iter().fold(false, |a, &b| a | b) {
+            continue;
+        }
+        out.extend(
+            row.iter()
+                .enumerate()
+                .filter(|(_, b)| **b)
+                .map(|(u, _)| [u as u32, v as u32]),
+        );
+    }
+    out
 }
 
 /// Row spans `(v, u_first, u_last)` of the pixels whose centre lies inside a convex polygon,
