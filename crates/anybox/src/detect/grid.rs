@@ -244,13 +244,6 @@ fn close_seam_gaps(seam: &[bool], w: usize, h: usize, r: usize) -> Vec<bool> {
     if r == 0 {
         return seam.to_vec();
     }
-    let at = |u: isize, v: isize| {
-        u >= 0
-            && v >= 0
-            && (u as usize) < w
-            && (v as usize) < h
-            && seam[v as usize * w + u as usize]
-    };
     // Seam cells per (2r + 1)² window, from a summed-area table: a bridge needs one on each
     // side, so cells whose window holds fewer than two are skipped (most of the frame).
     let sw = w + 1;
@@ -268,25 +261,34 @@ fn close_seam_gaps(seam: &[bool], w: usize, h: usize, r: usize) -> Vec<bool> {
         sat[v1 * sw + u1] + sat[v0 * sw + u0] - sat[v0 * sw + u1] - sat[v1 * sw + u0]
     };
     let mut out = seam.to_vec();
-    for v in 0..h as isize {
-        for u in 0..w as isize {
-            if seam[v as usize * w + u as usize] || window(u as usize, v as usize) < 2 {
-                continue;
-            }
-            let bridged = [(1isize, 0isize), (0, 1), (1, 1), (1, -1)]
-                .iter()
-                .any(|&(du, dv)| {
-                    let side =
-                        |s: isize| (1..=r as isize).any(|d| at(u + s * d * du, v + s * d * dv));
-                    let thin = !(at(u - dv, v + du) || at(u + dv, v - du));
-                    thin && side(1) && side(-1)
-                });
-            if bridged {
-                out[v as usize * w + u as usize] = true;
+    for v in 0..h {
+        for u in 0..w {
+            if !seam[v * w + u] && window(u, v) >= 2 && bridges_gap(seam, w, h, r, u, v) {
+                out[v * w + u] = true;
             }
         }
     }
     out
+}
+
+/// The rule of [`close_seam_gaps`] at cell `(u, v)`: seam cells within `r` on both sides along
+/// a row, a column or a diagonal, and none beside it across that direction.
+fn bridges_gap(seam: &[bool], w: usize, h: usize, r: usize, u: usize, v: usize) -> bool {
+    let at = |u: isize, v: isize| {
+        u >= 0
+            && v >= 0
+            && (u as usize) < w
+            && (v as usize) < h
+            && seam[v as usize * w + u as usize]
+    };
+    let (u, v) = (u as isize, v as isize);
+    [(1isize, 0isize), (0, 1), (1, 1), (1, -1)]
+        .iter()
+        .any(|&(du, dv)| {
+            let side = |s: isize| (1..=r as isize).any(|d| at(u + s * d * du, v + s * d * dv));
+            let thin = !(at(u - dv, v + du) || at(u + dv, v - du));
+            thin && side(1) && side(-1)
+        })
 }
 
 fn points(z: &[f32], w: usize, h: usize, k: &Intrinsics) -> Vec<[f32; 3]> {
@@ -528,32 +530,12 @@ mod tests {
     /// on random sparse patterns it agrees with the plain rule applied to every cell.
     #[test]
     fn seam_gap_shortcut_matches_the_plain_rule() {
-        fn plain(seam: &[bool], w: usize, h: usize, r: usize) -> Vec<bool> {
-            let at = |u: isize, v: isize| {
-                u >= 0
-                    && v >= 0
-                    && (u as usize) < w
-                    && (v as usize) < h
-                    && seam[v as usize * w + u as usize]
-            };
-            let mut out = seam.to_vec();
-            for v in 0..h as isize {
-                for u in 0..w as isize {
-                    let bridged =
-                        [(1isize, 0isize), (0, 1), (1, 1), (1, -1)]
-                            .iter()
-                            .any(|&(du, dv)| {
-                                let side = |s: isize| {
-                                    (1..=r as isize).any(|d| at(u + s * d * du, v + s * d * dv))
-                                };
-                                let thin = !(at(u - dv, v + du) || at(u + dv, v - du));
-                                thin && side(1) && side(-1)
-                            });
-                    out[v as usize * w + u as usize] |= bridged;
-                }
-            }
-            out
-        }
+        // The rule applied to every cell, with no window shortcut.
+        let plain = |seam: &[bool], w: usize, h: usize, r: usize| -> Vec<bool> {
+            (0..w * h)
+                .map(|i| seam[i] || bridges_gap(seam, w, h, r, i % w, i / w))
+                .collect::<Vec<bool>>()
+        };
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         let (w, h) = (37, 23);
         let mut bridged_cells = 0;
