@@ -27,6 +27,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::observation::{smallest_eigenvector, sym3_eigenvalues, sym3_eigenvector, Observation};
+use crate::order_stats::rank_pair;
 
 /// Parameters of hypothesis generation.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -496,11 +497,7 @@ pub fn robust_extent(
         return (0.0, 0.0);
     }
     let k = ((trim.clamp(0.0, 0.49) * n as f64).floor() as usize).min(n - 1);
-    let lo = *scratch.select_nth_unstable_by(k, |a, b| a.total_cmp(b)).1;
-    let hi = *scratch
-        .select_nth_unstable_by(n - 1 - k, |a, b| a.total_cmp(b))
-        .1;
-    (lo, hi)
+    rank_pair(scratch, k, n - 1 - k).unwrap_or((0.0, 0.0))
 }
 
 /// Centre of a box of `size_mm` with rotation `rot` placed behind its visible faces (module docs).

@@ -24,6 +24,7 @@ pub mod detect;
 pub mod error;
 pub mod hypotheses;
 pub mod observation;
+mod order_stats;
 pub mod overlay;
 pub mod pipeline;
 pub mod pose;

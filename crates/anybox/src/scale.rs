@@ -30,6 +30,7 @@ use nalgebra::{Matrix3, Point3, Rotation3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::context::{face_point_counts, observed_axes_from_counts, ContextConfig, HiddenSource};
+use crate::order_stats::rank_pair;
 use crate::silhouette::{
     axis_directions, extents_of_local_points, mask_span, project_local_points, raster_extents,
     rendered_extents, rendered_raster_extents, trim_count, AxisDirections, Extents,
@@ -736,16 +737,26 @@ fn binary_search<P: PoseEstimator>(
     })
 }
 
+/// Rank of percentile `pct` (0..100) among `n > 0` values (nearest rank).
+fn percentile_rank(n: usize, pct: f64) -> usize {
+    ((pct / 100.0) * (n - 1) as f64)
+        .round()
+        .clamp(0.0, (n - 1) as f64) as usize
+}
+
 /// Percentile (0..100) of a slice, by selection; `None` when empty.
 fn percentile(v: &mut [f64], pct: f64) -> Option<f64> {
     if v.is_empty() {
         return None;
     }
-    let n = v.len();
-    let idx = ((pct / 100.0) * (n - 1) as f64)
-        .round()
-        .clamp(0.0, (n - 1) as f64) as usize;
+    let idx = percentile_rank(v.len(), pct);
     Some(*v.select_nth_unstable_by(idx, f64::total_cmp).1)
+}
+
+/// Percentiles `pct` and `100 - pct` of a slice; `None` when empty.
+fn percentile_pair(v: &mut [f64], pct: f64) -> Option<(f64, f64)> {
+    let n = v.len().max(1);
+    rank_pair(v, percentile_rank(n, pct), percentile_rank(n, 100.0 - pct))
 }
 
 /// Robust extents of the points along each box axis, using only points on faces spanning that
@@ -775,9 +786,7 @@ pub fn point_extents_mm(
         if buf.len() < 10 {
             continue;
         }
-        let lo = percentile(&mut buf, pct);
-        let hi = percentile(&mut buf, 100.0 - pct);
-        if let (Some(lo), Some(hi)) = (lo, hi) {
+        if let Some((lo, hi)) = percentile_pair(&mut buf, pct) {
             out[a] = Some(hi - lo);
         }
     }
@@ -886,9 +895,7 @@ pub fn mask_ray_fit(
         if buf.len() < 10 {
             continue;
         }
-        let lo = percentile(&mut buf, pct);
-        let hi = percentile(&mut buf, 100.0 - pct);
-        if let (Some(lo), Some(hi)) = (lo, hi) {
+        if let Some((lo, hi)) = percentile_pair(&mut buf, pct) {
             // One pixel's footprint along axis a, capped for axes seen nearly end-on.
             let foot = dirs
                 .map(|d| 1.0 / d.px_per_mm[a].max(1e-9))

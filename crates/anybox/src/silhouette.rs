@@ -19,6 +19,7 @@
 //!   apart; one pixel is added to the observed extent so that both measure the same thing.
 
 // Projection and the hull are the geometry crate's (one convention for every caller).
+use crate::order_stats::rank_pair;
 pub use anybox_geom::projection::{
     convex_hull_2d as convex_hull, project_corners_px, silhouette_hull_px,
 };
@@ -153,17 +154,13 @@ pub fn mask_span(
     );
     let n = scratch.len();
     let trim = trim.min((n - 1) / 2);
-    let lo = if trim == 0 {
-        scratch.iter().copied().fold(f64::INFINITY, f64::min)
+    let (lo, hi) = if trim == 0 {
+        (
+            scratch.iter().copied().fold(f64::INFINITY, f64::min),
+            scratch.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        )
     } else {
-        *scratch.select_nth_unstable_by(trim, f64::total_cmp).1
-    };
-    let hi = if trim == 0 {
-        scratch.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-    } else {
-        *scratch
-            .select_nth_unstable_by(n - 1 - trim, f64::total_cmp)
-            .1
+        rank_pair(scratch, trim, n - 1 - trim)?
     };
     Some(MaskSpan { lo, hi })
 }
@@ -318,9 +315,7 @@ pub fn raster_extents(
                 continue;
             }
             let t = trim.min((n - 1) / 2);
-            let lo = *scratch.select_nth_unstable_by(t, f64::total_cmp).1;
-            let hi = *scratch.select_nth_unstable_by(n - 1 - t, f64::total_cmp).1;
-            out.px[a] = Some(hi - lo + 1.0);
+            out.px[a] = rank_pair(scratch, t, n - 1 - t).map(|(lo, hi)| hi - lo + 1.0);
         }
     }
     out

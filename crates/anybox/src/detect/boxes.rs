@@ -472,9 +472,7 @@ pub(crate) fn robust_range(vals: &mut [f64], q: f64) -> (f64, f64) {
     let n = vals.len();
     let lo_i = ((n as f64 * q) as usize).min(n - 1);
     let hi_i = ((n as f64 * (1.0 - q)) as usize).min(n - 1);
-    let lo = *vals.select_nth_unstable_by(lo_i, |a, b| a.total_cmp(b)).1;
-    let hi = *vals.select_nth_unstable_by(hi_i, |a, b| a.total_cmp(b)).1;
-    (lo, hi)
+    crate::order_stats::rank_pair(vals, lo_i, hi_i).unwrap_or((0.0, 0.0))
 }
 
 /// The axes of a lone face with normal `a`: `a` and the in-plane pair of the smallest
