@@ -32,8 +32,9 @@ use serde::{Deserialize, Serialize};
 use crate::context::{face_point_counts, observed_axes_from_counts, ContextConfig, HiddenSource};
 use crate::order_stats::rank_pair;
 use crate::silhouette::{
-    axis_directions, extents_of_local_points, mask_span, project_local_points, raster_extents,
-    rendered_extents, rendered_raster_extents, trim_count, AxisDirections, Extents,
+    axis_directions, extents_of_local_points, mask_span_in_rows, project_local_points,
+    raster_extents, raster_rows, rendered_extents, rendered_raster_extents, trim_count,
+    AxisDirections, Extents,
 };
 
 /// How the box size is found.
@@ -333,41 +334,50 @@ pub fn observed_extents_checked(
 ) -> ObservedExtents {
     let pixels = inputs.mask_pixels;
     let trim = trim_count(pixels.len(), cfg.extent_trim_fraction);
+    let rows = raster_rows(pixels);
     let mut out = ObservedExtents {
         extents: Extents { px: [None; 3] },
         lower_bound_only: [false; 3],
     };
     for a in 0..3 {
         let Some(d) = dirs.dirs[a] else { continue };
-        let Some(span) = mask_span(pixels, &d, trim, scratch) else {
+        let Some(span) = mask_span_in_rows(pixels, rows.as_deref(), &d, trim, scratch) else {
             continue;
         };
         out.extents.px[a] = Some(span.hi - span.lo + 1.0);
-        out.lower_bound_only[a] = side_blocked(inputs, &d, span.hi, 1.0, cfg)
-            || side_blocked(inputs, &(-d), -span.lo, 1.0, cfg);
+        out.lower_bound_only[a] = side_blocked(inputs, rows.as_deref(), &d, span.hi, cfg)
+            || side_blocked(inputs, rows.as_deref(), &(-d), -span.lo, cfg);
     }
     out
 }
 
 /// True when the mask pixels within 1.5 px of the extreme `edge` along `d` mostly border an
-/// occluder or the image border.
+/// occluder or the image border. With the pixel list's [`raster_rows`], only each row's end
+/// towards `d` is walked: the projections are monotone along a row (see
+/// [`crate::silhouette::mask_span_in_rows`]), so the same pixels are counted.
 fn side_blocked(
     inputs: &ScaleInputs<'_>,
+    rows: Option<&[std::ops::Range<usize>]>,
     d: &Vector2<f64>,
     edge: f64,
-    _w: f64,
     cfg: &ScaleConfig,
 ) -> bool {
+    let (n, blocked) = side_counts(inputs, rows, d, edge, cfg);
+    n > 0 && blocked * 10 >= n * 3
+}
+
+/// [`side_blocked`]'s counts: mask pixels within 1.5 px of `edge`, and those of them blocked.
+fn side_counts(
+    inputs: &ScaleInputs<'_>,
+    rows: Option<&[std::ops::Range<usize>]>,
+    d: &Vector2<f64>,
+    edge: f64,
+    cfg: &ScaleConfig,
+) -> (usize, usize) {
     let depth = inputs.depth;
     let (w, h) = (i64::from(depth.width), i64::from(depth.height));
-    let mut n = 0usize;
-    let mut blocked = 0usize;
-    for p in inputs.mask_pixels {
-        let s = f64::from(p[0]) * d.x + f64::from(p[1]) * d.y;
-        if s < edge - 1.5 {
-            continue;
-        }
-        n += 1;
+    let near_edge = |p: &[u32; 2]| f64::from(p[0]) * d.x + f64::from(p[1]) * d.y >= edge - 1.5;
+    let blocks = |p: &[u32; 2]| -> bool {
         let pd = depth.get(p[0], p[1]);
         // Step 3 px outward; the first pixel outside the image or clearly in front blocks.
         let mut hit = false;
@@ -385,11 +395,35 @@ fn side_blocked(
                 }
             }
         }
-        if hit {
-            blocked += 1;
+        hit
+    };
+    let (mut n, mut blocked) = (0usize, 0usize);
+    let mut count = |p: &[u32; 2]| {
+        n += 1;
+        blocked += usize::from(blocks(p));
+    };
+    // Monotone rows need a finite direction.
+    match rows.filter(|_| d.x.is_finite() && d.y.is_finite()) {
+        Some(rows) => {
+            for r in rows {
+                let row = &inputs.mask_pixels[r.clone()];
+                if d.x >= 0.0 {
+                    row.iter()
+                        .rev()
+                        .take_while(|p| near_edge(p))
+                        .for_each(&mut count);
+                } else {
+                    row.iter().take_while(|p| near_edge(p)).for_each(&mut count);
+                }
+            }
         }
+        None => inputs
+            .mask_pixels
+            .iter()
+            .filter(|p| near_edge(p))
+            .for_each(&mut count),
     }
-    n > 0 && blocked * 10 >= n * 3
+    (n, blocked)
 }
 
 /// Geodesic angle between two rotations, modulo the 4 proper sign-flip symmetries of a box, deg.
@@ -1304,6 +1338,55 @@ mod tests {
         let mut est = oracle_pose(gt);
         let out = scale_search(&mut est, &inputs, &cfg, &ContextConfig::default(), None).unwrap();
         (gt, out)
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+        /// Walking only the rows' ends counts the same pixels, and the same blocked ones, as a
+        /// scan of every pixel, for ragged masks next to random occluders and the image
+        /// border, in any direction.
+        #[test]
+        fn side_check_from_row_ends_matches_every_pixel(
+            cells in proptest::collection::vec(0u8..4, 48 * 36),
+            angle_deg in proptest::sample::select(vec![0.0, 90.0, 180.0, 270.0, 17.0, 135.0, 200.5, 333.0]),
+            slack in 0.0f64..6.0,
+        ) {
+            let (w, h) = (48u32, 36u32);
+            // 0: mask at 1000 mm, 1: background at 1500 mm, 2: occluder at 600 mm, 3: no depth.
+            let depth = anybox_io::DepthMap {
+                width: w,
+                height: h,
+                depth_mm: cells
+                    .iter()
+                    .map(|c| [1000.0, 1500.0, 600.0, 0.0][*c as usize])
+                    .collect(),
+            };
+            let px: Vec<[u32; 2]> = (0..h)
+                .flat_map(|v| (0..w).map(move |u| [u, v]))
+                .filter(|p| cells[(p[1] * w + p[0]) as usize] == 0)
+                .collect();
+            let k = cam();
+            let inputs = ScaleInputs {
+                intrinsics: &k,
+                depth: &depth,
+                mask_pixels: &px,
+                points_mm: &[],
+                normals: &[],
+            };
+            let a = f64::to_radians(angle_deg);
+            let d = Vector2::new(a.cos(), a.sin());
+            let rows = raster_rows(&px);
+            let mut s = Vec::new();
+            if let Some(span) = crate::silhouette::mask_span(&px, &d, 0, &mut s) {
+                let cfg = ScaleConfig::default();
+                for (dir, edge) in [(d, span.hi - slack), (-d, -span.lo - slack)] {
+                    proptest::prop_assert_eq!(
+                        side_counts(&inputs, rows.as_deref(), &dir, edge, &cfg),
+                        side_counts(&inputs, None, &dir, edge, &cfg)
+                    );
+                }
+            }
+        }
     }
 
     #[test]
