@@ -615,14 +615,10 @@ pub fn detect_boxes(
 ) -> Result<Vec<Detection>, DetectError> {
     validate(rgb, depth, intrinsics)?;
     let (w, h) = (depth.width, depth.height);
-    let t0 = std::time::Instant::now();
     let g = grid::Grid::build(rgb, depth, intrinsics, cfg);
-    let t1 = t0.elapsed().as_secs_f64() * 1e3;
     let p = pool(&g, rgb.is_some(), cfg);
-    let t2 = t0.elapsed().as_secs_f64() * 1e3;
     let (mut chosen, alts) = select(&g, p.objects, p.geo, p.col, cfg);
     let residual = residual_candidates(&g, &p.joins, &p.off, &p.planes, &chosen, cfg);
-    let t3 = t0.elapsed().as_secs_f64() * 1e3;
     chosen.extend(residual);
     // Support cells, and cells next to a support facing like it, are never filled in: at a
     // box's foot they lie inside its silhouette at about its depth, and the estimator would
@@ -637,7 +633,6 @@ pub fn detect_boxes(
         .into_par_iter()
         .flat_map(|a| boxes::fill(&g, vec![a], &mut base_claims.clone(), cfg))
         .collect();
-    let t4 = t0.elapsed().as_secs_f64() * 1e3;
     let (fw, fh) = (w as usize, h as usize);
     let area = (fw * fh) as f64 / (640.0 * 480.0);
     let one_face_min = cfg.one_face_min_pixels as f64 * area;
@@ -667,16 +662,6 @@ pub fn detect_boxes(
             })
         })
         .collect();
-    let t5 = t0.elapsed().as_secs_f64() * 1e3;
-    if std::env::var("DT").is_ok() {
-        eprintln!(
-            "DT grid {t1:.1} pool {:.1} sel {:.1} fill {:.1} masks {:.1}",
-            t2 - t1,
-            t3 - t2,
-            t4 - t3,
-            t5 - t4
-        );
-    }
     // Best first (stable: equal scores keep the selection order).
     out.sort_by(|a, b| b.score.total_cmp(&a.score));
     Ok(out)
@@ -712,15 +697,11 @@ struct Pool {
 }
 
 fn pool(g: &grid::Grid, has_rgb: bool, cfg: &DetectConfig) -> Pool {
-    let t0 = std::time::Instant::now();
     let joins = regions::joins(g, has_rgb, &g.seam, cfg);
-    let ta = t0.elapsed().as_secs_f64() * 1e3;
     // Two levels: smooth surfaces regardless of colour (a box face with its tape, labels and
     // print), and colour-uniform patches (which separate flush cartons).
     let (geo_labels, surfaces) = regions::segment(g, &joins, Cues::Geometry, None, cfg);
-    let tb = t0.elapsed().as_secs_f64() * 1e3;
     let (on_support, planes) = boxes::support_mask(g, &geo_labels, &surfaces, cfg);
-    let tc = t0.elapsed().as_secs_f64() * 1e3;
     // Segment again without the support cells: what leaked into a support becomes its own.
     // Surfaces, colour patches and objects are independent from here: built in parallel.
     let (geo, (col, (off, objects))) = rayon::join(
@@ -767,15 +748,6 @@ fn pool(g: &grid::Grid, has_rgb: bool, cfg: &DetectConfig) -> Pool {
             )
         },
     );
-    let td = t0.elapsed().as_secs_f64() * 1e3;
-    if std::env::var("DT").is_ok() {
-        eprintln!(
-            "PT joins {ta:.1} seg {:.1} support {:.1} three {:.1}",
-            tb - ta,
-            tc - tb,
-            td - tc
-        );
-    }
     Pool {
         objects,
         geo,
