@@ -345,28 +345,20 @@ pub fn observed_extents_checked(
             continue;
         };
         out.extents.px[a] = Some(span.hi - span.lo + 1.0);
-        out.lower_bound_only[a] = side_blocked(inputs, rows.as_deref(), &d, span.hi, cfg)
-            || side_blocked(inputs, rows.as_deref(), &(-d), -span.lo, cfg);
+        // A side is blocked when its edge pixels mostly border an occluder or the image border.
+        let blocked = |d: &Vector2<f64>, edge: f64| {
+            let (n, blocked) = side_counts(inputs, rows.as_deref(), d, edge, cfg);
+            n > 0 && blocked * 10 >= n * 3
+        };
+        out.lower_bound_only[a] = blocked(&d, span.hi) || blocked(&(-d), -span.lo);
     }
     out
 }
 
-/// True when the mask pixels within 1.5 px of the extreme `edge` along `d` mostly border an
-/// occluder or the image border. With the pixel list's [`raster_rows`], only each row's end
+/// The mask pixels within 1.5 px of the extreme `edge` along `d`, and how many of them border
+/// an occluder or the image border. With the pixel list's [`raster_rows`], only each row's end
 /// towards `d` is walked: the projections are monotone along a row (see
 /// [`crate::silhouette::mask_span_in_rows`]), so the same pixels are counted.
-fn side_blocked(
-    inputs: &ScaleInputs<'_>,
-    rows: Option<&[std::ops::Range<usize>]>,
-    d: &Vector2<f64>,
-    edge: f64,
-    cfg: &ScaleConfig,
-) -> bool {
-    let (n, blocked) = side_counts(inputs, rows, d, edge, cfg);
-    n > 0 && blocked * 10 >= n * 3
-}
-
-/// [`side_blocked`]'s counts: mask pixels within 1.5 px of `edge`, and those of them blocked.
 fn side_counts(
     inputs: &ScaleInputs<'_>,
     rows: Option<&[std::ops::Range<usize>]>,
@@ -1276,6 +1268,21 @@ mod tests {
     use crate::pipeline::test_scene::{cam, render, Plane};
     use crate::silhouette::mask_pixels;
 
+    /// Scale inputs with the mask pixels only (no points or normals).
+    fn pixel_inputs<'a>(
+        k: &'a Intrinsics,
+        depth: &'a anybox_io::DepthMap,
+        px: &'a [[u32; 2]],
+    ) -> ScaleInputs<'a> {
+        ScaleInputs {
+            intrinsics: k,
+            depth,
+            mask_pixels: px,
+            points_mm: &[],
+            normals: &[],
+        }
+    }
+
     /// The test double of PoseEstimate(C(s)): the true rotation, the centre placed so that the
     /// camera-facing faces stay where the true box's are.
     fn oracle_pose(
@@ -1320,13 +1327,7 @@ mod tests {
         let (gt, depth, mask) = scene();
         let k = cam();
         let px = mask_pixels(&mask);
-        let inputs = ScaleInputs {
-            intrinsics: &k,
-            depth: &depth,
-            mask_pixels: &px,
-            points_mm: &[],
-            normals: &[],
-        };
+        let inputs = pixel_inputs(&k, &depth, &px);
         let cfg = ScaleConfig {
             mode,
             decoupled: true,
@@ -1366,13 +1367,7 @@ mod tests {
                 .filter(|p| cells[(p[1] * w + p[0]) as usize] == 0)
                 .collect();
             let k = cam();
-            let inputs = ScaleInputs {
-                intrinsics: &k,
-                depth: &depth,
-                mask_pixels: &px,
-                points_mm: &[],
-                normals: &[],
-            };
+            let inputs = pixel_inputs(&k, &depth, &px);
             let a = f64::to_radians(angle_deg);
             let d = Vector2::new(a.cos(), a.sin());
             let rows = raster_rows(&px);
@@ -1412,13 +1407,7 @@ mod tests {
         let (gt, depth, mask) = scene();
         let k = cam();
         let px = mask_pixels(&mask);
-        let inputs = ScaleInputs {
-            intrinsics: &k,
-            depth: &depth,
-            mask_pixels: &px,
-            points_mm: &[],
-            normals: &[],
-        };
+        let inputs = pixel_inputs(&k, &depth, &px);
         for f in [2.0, 0.5] {
             let cfg = ScaleConfig {
                 mode: ScaleMode::BinarySearch,
@@ -1494,26 +1483,14 @@ mod tests {
         let (d2, m2) = render(&[gt, occ], &[floor], &k, 640, 480);
         assert!(m2[0].count() < mask.count());
         let px = mask_pixels(&m2[0]);
-        let inputs = ScaleInputs {
-            intrinsics: &k,
-            depth: &d2,
-            mask_pixels: &px,
-            points_mm: &[],
-            normals: &[],
-        };
+        let inputs = pixel_inputs(&k, &d2, &px);
         let dirs = axis_directions(&gt, &k).unwrap();
         let mut s = Vec::new();
         let o = observed_extents_checked(&inputs, &dirs, &ScaleConfig::default(), &mut s);
         assert!(o.lower_bound_only.iter().any(|b| *b));
         // The unoccluded view has no blocked side.
         let px = mask_pixels(&mask);
-        let inputs = ScaleInputs {
-            intrinsics: &k,
-            depth: &depth,
-            mask_pixels: &px,
-            points_mm: &[],
-            normals: &[],
-        };
+        let inputs = pixel_inputs(&k, &depth, &px);
         let o = observed_extents_checked(&inputs, &dirs, &ScaleConfig::default(), &mut s);
         assert_eq!(o.lower_bound_only, [false; 3]);
     }
