@@ -15,6 +15,9 @@ const MARGIN: usize = 3;
 /// Below this length, plain selection is as fast.
 const SMALL: usize = 128;
 
+// The sample's stride, `n / SAMPLE`, must be at least 1.
+const _: () = assert!(SMALL >= SAMPLE);
+
 /// The `k_lo`-th and `k_hi`-th smallest values of `v` (0-based ranks in the order of
 /// [`f64::total_cmp`]; ranks past the end are clamped to the last). Reorders `v`. `None` when
 /// `v` is empty.
