@@ -339,17 +339,17 @@ pub fn observed_extents_checked(
         extents: Extents { px: [None; 3] },
         lower_bound_only: [false; 3],
     };
+    // A side is blocked when its edge pixels mostly border an occluder or the image border.
+    let blocked = |d: &Vector2<f64>, edge: f64| {
+        let (n, blocked) = side_counts(inputs, rows.as_deref(), d, edge, cfg);
+        n > 0 && blocked * 10 >= n * 3
+    };
     for a in 0..3 {
         let Some(d) = dirs.dirs[a] else { continue };
         let Some(span) = mask_span_in_rows(pixels, rows.as_deref(), &d, trim, scratch) else {
             continue;
         };
         out.extents.px[a] = Some(span.hi - span.lo + 1.0);
-        // A side is blocked when its edge pixels mostly border an occluder or the image border.
-        let blocked = |d: &Vector2<f64>, edge: f64| {
-            let (n, blocked) = side_counts(inputs, rows.as_deref(), d, edge, cfg);
-            n > 0 && blocked * 10 >= n * 3
-        };
         out.lower_bound_only[a] = blocked(&d, span.hi) || blocked(&(-d), -span.lo);
     }
     out

@@ -153,21 +153,18 @@ pub fn mask_span(
 pub fn raster_rows(pixels: &[[u32; 2]]) -> Option<Vec<Range<usize>>> {
     let mut rows = Vec::new();
     let mut start = 0;
-    for i in 1..=pixels.len() {
-        let Some(p) = pixels.get(i) else {
-            rows.push(start..i);
-            break;
-        };
-        let q = pixels[i - 1];
-        if p[1] != q[1] {
-            if p[1] < q[1] {
-                return None;
-            }
-            rows.push(start..i);
-            start = i;
-        } else if p[0] <= q[0] {
+    for (i, pair) in pixels.windows(2).enumerate() {
+        let ([u0, v0], [u1, v1]) = (pair[0], pair[1]);
+        if v1 < v0 || (v1 == v0 && u1 <= u0) {
             return None;
         }
+        if v1 > v0 {
+            rows.push(start..i + 1);
+            start = i + 1;
+        }
+    }
+    if !pixels.is_empty() {
+        rows.push(start..pixels.len());
     }
     Some(rows)
 }
