@@ -175,7 +175,7 @@ pub fn raster_rows(pixels: &[[u32; 2]]) -> Option<Vec<Range<usize>>> {
 /// `d.x ≥ 0`, non-increasing otherwise: the same rounded products plus one constant), so the
 /// `trim + 1` lowest and highest values of the whole list are among the `trim + 1` first and
 /// last pixels of the rows; only those are ranked, and the values are the same.
-pub fn mask_span_in_rows(
+pub(crate) fn mask_span_in_rows(
     pixels: &[[u32; 2]],
     rows: Option<&[Range<usize>]>,
     d: &Vector2<f64>,
