@@ -1262,3 +1262,134 @@ fn a_stick_standing_on_a_box_of_another_colour_is_cut_off_it() {
     let without = best_primary_ious(&v, &[&stick], &off)[0];
     assert!(without < 0.65, "without the colour cut: {without}");
 }
+
+#[test]
+fn spurs_the_fill_stitched_on_are_opened_off_a_slab() {
+    // Generated table scene (seed 2026, scene 11): a 315 × 188 × 52 mm slab lying flat beside
+    // a taller box. The fill takes in a line along that box's rim, at about the slab's depth,
+    // which runs on past the slab's ends; those few hundred pixels stretched the estimate to
+    // 466 mm.
+    let v = table_d0_view(11);
+    let gt = v
+        .boxes
+        .iter()
+        .find(|b| {
+            let mut s = [b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z];
+            s.sort_by(f64::total_cmp);
+            s.iter()
+                .zip([52.0, 188.0, 315.0])
+                .all(|(a, d)| (a - d).abs() < 2.0)
+        })
+        .expect("the slab is in the scene");
+    let best_iou3d = |cfg: &DetectConfig| -> f64 {
+        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
+        let d = dets
+            .iter()
+            .filter(|d| !d.alternative)
+            .max_by(|a, b| {
+                a.mask
+                    .iou(&gt.mask_visib)
+                    .total_cmp(&b.mask.iou(&gt.mask_visib))
+            })
+            .expect("detections");
+        let est = crate::pipeline::estimate_box(
+            &v.depth,
+            &v.intrinsics,
+            &d.mask,
+            &crate::config::Config::default(),
+        )
+        .expect("estimate");
+        anybox_geom::iou::iou(&est.pose, &gt.pose, anybox_geom::iou::IouMethod::Exact)
+    };
+    let with = best_iou3d(&DetectConfig::default());
+    assert!(with > 0.75, "3D IoU with the opening {with:.2}");
+    // Premise: without the opening the spurs stay and the estimate is stretched.
+    let without = best_iou3d(&DetectConfig {
+        mask_open_px: 0,
+        ..DetectConfig::default()
+    });
+    assert!(without < 0.4, "3D IoU without the opening {without:.2}");
+}
+
+#[test]
+fn opening_keeps_a_face_and_drops_a_line_leaving_it() {
+    // A 20 × 12 px block against the image's left edge, with a 2 px line running on 15 px
+    // past its right side.
+    let (w, h) = (60u32, 30u32);
+    let mut m = Mask::empty(w, h);
+    let set = |m: &mut Mask, x: u32, y: u32| m.data[(y * w + x) as usize] = true;
+    for y in 5..17 {
+        for x in 0..20 {
+            set(&mut m, x, y);
+        }
+    }
+    for y in 10..12 {
+        for x in 20..35 {
+            set(&mut m, x, y);
+        }
+    }
+    let block = m.clone();
+    let mut opened = m.clone();
+    open_mask(&mut opened, 2);
+    let n = |m: &Mask| m.data.iter().filter(|b| **b).count();
+    // The block stays whole (its pixels on the frame's edge too); the line goes.
+    assert_eq!(n(&opened), 20 * 12);
+    for y in 5..17 {
+        for x in 0..20 {
+            assert!(opened.data[(y * w + x) as usize], "({x}, {y}) kept");
+        }
+    }
+    assert!(block.data.iter().zip(&opened.data).all(|(b, o)| b >= o));
+    // r = 0 changes nothing.
+    let mut same = m.clone();
+    open_mask(&mut same, 0);
+    assert_eq!(same, m);
+}
+
+/// The opening by its definition: a pixel stays when some `(2r+1)²` square holding it lies
+/// within the mask (pixels beyond the frame counting as inside).
+fn opening_brute_force(m: &Mask, r: i64) -> Mask {
+    let (w, h) = (i64::from(m.width), i64::from(m.height));
+    let inside =
+        |x: i64, y: i64| x < 0 || y < 0 || x >= w || y >= h || m.data[(y * w + x) as usize];
+    let square_in =
+        |cx: i64, cy: i64| (cy - r..=cy + r).all(|y| (cx - r..=cx + r).all(|x| inside(x, y)));
+    let mut out = m.clone();
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            out.data[i] =
+                m.data[i] && (y - r..=y + r).any(|cy| (x - r..=x + r).any(|cx| square_in(cx, cy)));
+        }
+    }
+    out
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+    #[test]
+    fn opening_matches_its_definition(
+        w in 1u32..28,
+        h in 1u32..20,
+        r in 0i64..4,
+        rects in proptest::collection::vec((0u32..28, 0u32..20, 1u32..14, 1u32..10), 0..5),
+        noise in proptest::collection::vec(proptest::prelude::any::<u8>(), 28 * 20),
+    ) {
+        // Blocks (faces), thin rectangles (lines) and scattered pixels.
+        let mut m = Mask::empty(w, h);
+        for (x0, y0, rw, rh) in rects {
+            for y in y0..(y0 + rh).min(h) {
+                for x in x0..(x0 + rw).min(w) {
+                    m.data[(y * w + x) as usize] = true;
+                }
+            }
+        }
+        for (i, px) in m.data.iter_mut().enumerate() {
+            *px |= noise[i] < 20;
+        }
+        let mut fast = m.clone();
+        open_mask(&mut fast, r as usize);
+        let expected = if r == 0 { m.clone() } else { opening_brute_force(&m, r) };
+        proptest::prop_assert_eq!(fast, expected);
+    }
+}
