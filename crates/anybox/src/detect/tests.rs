@@ -1070,6 +1070,33 @@ fn a_wall_behind_the_table_is_not_taken_for_the_floor() {
     );
 }
 
+/// The detection of `view` with the best mask IoU with `gt`'s visible mask, and the 3D IoU
+/// of the default estimator's box from that mask with `gt`.
+fn best_detection_estimated(
+    view: &anybox_synth::SynthView,
+    gt: &anybox_synth::SynthBox,
+    cfg: &DetectConfig,
+) -> (Detection, f64) {
+    let d = detect_boxes(Some(&view.rgb), &view.depth, &view.intrinsics, cfg)
+        .unwrap()
+        .into_iter()
+        .max_by(|a, b| {
+            a.mask
+                .iou(&gt.mask_visib)
+                .total_cmp(&b.mask.iou(&gt.mask_visib))
+        })
+        .expect("detections");
+    let est = crate::pipeline::estimate_box(
+        &view.depth,
+        &view.intrinsics,
+        &d.mask,
+        &crate::config::Config::default(),
+    )
+    .expect("estimate");
+    let iou3d = anybox_geom::iou::iou(&est.pose, &gt.pose, anybox_geom::iou::IouMethod::Exact);
+    (d, iou3d)
+}
+
 #[test]
 fn a_one_face_detection_takes_in_its_thin_side_faces() {
     // Generated table scene (seed 2026, scene 16): an 88 × 70 × 225 mm carton lying with a
@@ -1082,23 +1109,7 @@ fn a_one_face_detection_takes_in_its_thin_side_faces() {
     sizes.sort_by(f64::total_cmp);
     assert_eq!(sizes.map(f64::round), [70.0, 88.0, 225.0], "the carton");
     let best = |cfg: &DetectConfig| -> (Detection, f64, f64) {
-        let d = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg)
-            .unwrap()
-            .into_iter()
-            .max_by(|a, b| {
-                a.mask
-                    .iou(&gt.mask_visib)
-                    .total_cmp(&b.mask.iou(&gt.mask_visib))
-            })
-            .expect("detections");
-        let est = crate::pipeline::estimate_box(
-            &v.depth,
-            &v.intrinsics,
-            &d.mask,
-            &crate::config::Config::default(),
-        )
-        .expect("estimate");
-        let iou3d = anybox_geom::iou::iou(&est.pose, &gt.pose, anybox_geom::iou::IouMethod::Exact);
+        let (d, iou3d) = best_detection_estimated(&v, gt, cfg);
         let prec = shared_px(&d.mask, &gt.mask_visib) as f64 / d.mask.count() as f64;
         (d, prec, iou3d)
     };
@@ -1281,26 +1292,7 @@ fn spurs_the_fill_stitched_on_are_opened_off_a_slab() {
                 .all(|(a, d)| (a - d).abs() < 2.0)
         })
         .expect("the slab is in the scene");
-    let best_iou3d = |cfg: &DetectConfig| -> f64 {
-        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
-        let d = dets
-            .iter()
-            .filter(|d| !d.alternative)
-            .max_by(|a, b| {
-                a.mask
-                    .iou(&gt.mask_visib)
-                    .total_cmp(&b.mask.iou(&gt.mask_visib))
-            })
-            .expect("detections");
-        let est = crate::pipeline::estimate_box(
-            &v.depth,
-            &v.intrinsics,
-            &d.mask,
-            &crate::config::Config::default(),
-        )
-        .expect("estimate");
-        anybox_geom::iou::iou(&est.pose, &gt.pose, anybox_geom::iou::IouMethod::Exact)
-    };
+    let best_iou3d = |cfg: &DetectConfig| best_detection_estimated(&v, gt, cfg).1;
     let with = best_iou3d(&DetectConfig::default());
     assert!(with > 0.75, "3D IoU with the opening {with:.2}");
     // Premise: without the opening the spurs stay and the estimate is stretched.
