@@ -140,22 +140,42 @@ impl Default for ObservationConfig {
     }
 }
 
-/// 1-D dilation: for each of `len` positions, whether some position within `r` of it is set.
-fn dilate_line(len: usize, r: usize, set: impl Fn(usize) -> bool) -> Vec<bool> {
-    let mut out = vec![false; len];
-    let mut last: Option<usize> = None;
-    for (x, o) in out.iter_mut().enumerate() {
-        if set(x) {
-            last = Some(x);
+/// Square dilation of a `w × h` bitmap (row-major) by `r`: a position is set when some set
+/// position lies within `r` of it along both axes; positions outside the bitmap are unset.
+/// Separable and streamed with a lag of r: along each row, then down the columns row by row
+/// (position i is set when the last set position up to i + r lies at i - r or later).
+pub(crate) fn dilate_square(bits: &[bool], w: usize, h: usize, r: usize) -> Vec<bool> {
+    let within = |last: Option<usize>, j: usize| last.is_some_and(|l| l + 2 * r >= j);
+    let mut rows = vec![false; w * h];
+    for (src, dst) in bits
+        .chunks_exact(w.max(1))
+        .zip(rows.chunks_exact_mut(w.max(1)))
+    {
+        let mut last = None;
+        for j in 0..w + r {
+            if j < w && src[j] {
+                last = Some(j);
+            }
+            if j >= r {
+                dst[j - r] = within(last, j);
+            }
         }
-        *o = last.is_some_and(|p| x - p <= r);
     }
-    let mut next: Option<usize> = None;
-    for x in (0..len).rev() {
-        if set(x) {
-            next = Some(x);
+    let mut out = vec![false; w * h];
+    let mut last = vec![None; w];
+    for j in 0..h + r {
+        if j < h {
+            for (l, &b) in last.iter_mut().zip(&rows[j * w..(j + 1) * w]) {
+                if b {
+                    *l = Some(j);
+                }
+            }
         }
-        out[x] |= next.is_some_and(|p| p - x <= r);
+        if j >= r {
+            for (o, &l) in out[(j - r) * w..(j - r + 1) * w].iter_mut().zip(&last) {
+                *o = within(l, j);
+            }
+        }
     }
     out
 }
@@ -227,18 +247,16 @@ pub fn trim_support_leak(
         let d = *depth.depth_mm.get(v * w + u)?;
         (d.is_finite() && d > 0.0).then(|| intrinsics.back_project(u as f64, v as f64, d as f64))
     };
-    // Square dilation of the mask by r, separably: rows, then columns.
-    let mut rows = vec![false; bw * bh];
-    for y in 0..bh {
-        let line = dilate_line(bw, r, |x| mask.data[(ev0 + y) * w + eu0 + x]);
-        rows[y * bw..(y + 1) * bw].copy_from_slice(&line);
-    }
+    // Square dilation of the mask by r; the ring is what it adds, column by column.
+    let window: Vec<bool> = (ev0..ev1)
+        .flat_map(|v| mask.data[v * w + eu0..v * w + eu1].iter().copied())
+        .collect();
+    let dilated = dilate_square(&window, bw, bh, r);
     let mut ring_pts: Vec<Point3<f64>> = Vec::new();
     for x in 0..bw {
-        let line = dilate_line(bh, r, |y| rows[y * bw + x]);
-        for (y, &dilated) in line.iter().enumerate() {
+        for y in 0..bh {
             let (u, v) = (eu0 + x, ev0 + y);
-            if dilated && !mask.data[v * w + u] {
+            if dilated[y * bw + x] && !mask.data[v * w + u] {
                 ring_pts.extend(point_at(u, v));
             }
         }
@@ -1248,5 +1266,28 @@ mod tests {
         ));
         let bad_k = Intrinsics { fx: 0.0, ..kk };
         assert!(observe(&d, &bad_k, &full, &cfg).is_err());
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+        /// Against the definition: set when a set position lies within r on both axes.
+        #[test]
+        fn square_dilation_matches_its_definition(
+            w in 1usize..24,
+            h in 1usize..18,
+            r in 0usize..5,
+            bits in proptest::collection::vec(proptest::prelude::any::<u8>(), 24 * 18),
+            density in 1u8..80,
+        ) {
+            let bits: Vec<bool> = bits[..w * h].iter().map(|b| *b < density).collect();
+            let got = dilate_square(&bits, w, h, r);
+            for y in 0..h {
+                for x in 0..w {
+                    let want = (y.saturating_sub(r)..(y + r + 1).min(h))
+                        .any(|yy| (x.saturating_sub(r)..(x + r + 1).min(w)).any(|xx| bits[yy * w + xx]));
+                    proptest::prop_assert_eq!(got[y * w + x], want, "({}, {})", x, y);
+                }
+            }
+        }
     }
 }

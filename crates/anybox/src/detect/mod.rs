@@ -46,6 +46,8 @@ mod regions;
 
 use anybox_geom::Intrinsics;
 use anybox_io::{DepthMap, Mask, RgbImage};
+
+use crate::observation::dilate_square;
 use rayon::prelude::*;
 use regions::Cues;
 use serde::{Deserialize, Serialize};
@@ -873,7 +875,7 @@ fn cells_to_mask(
 /// such square holding it lies within the mask. Lines and spurs narrower than the square go,
 /// faces stay. Pixels beyond the frame count as set (the object goes on past the image's edge),
 /// so a mask cut by the border keeps its pixels along it.
-pub(crate) fn open_mask(mask: &mut Mask, r: usize) {
+fn open_mask(mask: &mut Mask, r: usize) {
     if r == 0 {
         return;
     }
@@ -882,81 +884,41 @@ pub(crate) fn open_mask(mask: &mut Mask, r: usize) {
     };
     let (w, h) = (mask.width as isize, mask.height as isize);
     let ri = r as isize;
-    // The bounding box grown by r, and by another r past the frame's edges (set pixels there):
-    // every square centre that can reach a pixel of the mask. Beyond this window lie either
-    // unset pixels or, past a frame edge, set ones.
-    let grow = |lo: u32, hi: u32, n: isize| -> (isize, isize, bool, bool) {
-        let (lo, hi) = (lo as isize - ri, hi as isize + ri);
-        let (edge_lo, edge_hi) = (lo <= 0, hi >= n - 1);
-        let lo = if edge_lo { -ri } else { lo };
-        let hi = if edge_hi { n - 1 + ri } else { hi };
-        (lo, hi, edge_lo, edge_hi)
+    // The bounding box grown by r, past the frame's edges too: every square centre that can
+    // reach a pixel of the mask. The erosion is the dilation of the complement, which takes
+    // what lies beyond the window as unset, so the erosion takes it as set: right past a frame
+    // edge, and harmless elsewhere (a window position within r of the window's end is within
+    // r of an unset pixel inside it).
+    let (x0, y0) = (u0 as isize - ri, v0 as isize - ri);
+    let (ww, wh) = (
+        (u1 - u0) as usize + 1 + 2 * r,
+        (v1 - v0) as usize + 1 + 2 * r,
+    );
+    // The window's columns inside the frame, and where each window row's part inside the
+    // frame starts in the mask (`None` for rows outside the frame).
+    let xs = (-x0).max(0) as usize..((w - x0) as usize).min(ww);
+    let fx0 = (x0 + xs.start as isize) as usize;
+    let frame_start = |y: usize| -> Option<usize> {
+        let fy = y0 + y as isize;
+        (0..h).contains(&fy).then(|| fy as usize * w as usize + fx0)
     };
-    let (x0, x1, left, right) = grow(u0, u1, w);
-    let (y0, y1, top, bottom) = grow(v0, v1, h);
-    let (ww, wh) = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
-    let full = 2 * r + 1;
-    let src = |x: isize, y: isize| -> bool {
-        x < 0 || y < 0 || x >= w || y >= h || mask.data[(y * w + x) as usize]
-    };
-    // Erosion along rows: position i is set when the run of set pixels ending at i + r is at
-    // least 2r + 1 long (streamed with a lag of r).
-    let mut a = vec![false; ww * wh];
+    let mut outside = vec![false; ww * wh];
     for y in 0..wh {
-        let dst = &mut a[y * ww..(y + 1) * ww];
-        let mut run = if left { r } else { 0 };
-        for j in 0..ww + r {
-            let set = if j < ww {
-                src(x0 + j as isize, y0 + y as isize)
-            } else {
-                right
-            };
-            run = if set { run + 1 } else { 0 };
-            if j >= r {
-                dst[j - r] = run >= full;
+        if let Some(s) = frame_start(y) {
+            let win = &mut outside[y * ww + xs.start..y * ww + xs.end];
+            for (o, &m) in win.iter_mut().zip(&mask.data[s..s + xs.len()]) {
+                *o = !m;
             }
         }
     }
-    // Erosion along columns: the same with a run counter per column, row by row.
-    let mut b = vec![false; ww * wh];
-    let mut run = vec![if top { r } else { 0 }; ww];
-    for j in 0..wh + r {
-        for (x, n) in run.iter_mut().enumerate() {
-            let set = if j < wh { a[j * ww + x] } else { bottom };
-            *n = if set { *n + 1 } else { 0 };
-            if j >= r {
-                b[(j - r) * ww + x] = *n >= full;
-            }
-        }
-    }
-    // Dilation along rows: position i is set when the last set position up to i + r lies at
-    // i - r or later. (Square centres past the window are never needed: the window holds all.)
+    let mut eroded = dilate_square(&outside, ww, wh, r);
+    eroded.iter_mut().for_each(|b| *b = !*b);
+    let opened = dilate_square(&eroded, ww, wh, r);
     for y in 0..wh {
-        let (from, to) = (&b[y * ww..(y + 1) * ww], &mut a[y * ww..(y + 1) * ww]);
-        let mut last: Option<usize> = None;
-        for j in 0..ww + r {
-            if from.get(j).copied().unwrap_or(false) {
-                last = Some(j);
-            }
-            if j >= r {
-                to[j - r] = last.is_some_and(|l| l + 2 * r >= j);
-            }
-        }
-    }
-    // Dilation along columns; the frame's pixels keep what the opening keeps of them.
-    let mut last: Vec<Option<usize>> = vec![None; ww];
-    for j in 0..wh + r {
-        for (x, l) in last.iter_mut().enumerate() {
-            if j < wh && a[j * ww + x] {
-                *l = Some(j);
-            }
-            if j < r {
-                continue;
-            }
-            let (fx, fy) = (x0 + x as isize, y0 + (j - r) as isize);
-            if fx >= 0 && fy >= 0 && fx < w && fy < h {
-                let keep = l.is_some_and(|l| l + 2 * r >= j);
-                mask.data[(fy * w + fx) as usize] &= keep;
+        if let Some(s) = frame_start(y) {
+            let win = &opened[y * ww + xs.start..y * ww + xs.end];
+            for (m, &o) in mask.data[s..s + xs.len()].iter_mut().zip(win) {
+                *m &= o;
             }
         }
     }
