@@ -42,7 +42,7 @@ fn main() {
     }
     let est_cfg = cfg.for_detected_masks();
     let mut csv = String::from(
-        "set,frame,score,det_score,est_score,faces,alternative,px,depth_penalty,observed,iou,iou_ignored,gt\n",
+        "set,frame,score,det_score,est_score,faces,alternative,px,depth_penalty,observed,iou,iou_ignored,gt,size_min_mm,size_mid_mm,size_max_mm\n",
     );
     println!("set | AP@0.5 | ranked by true IoU | clear FPs dropped");
     for set in detection_sets(seed, frames) {
@@ -81,9 +81,11 @@ fn main() {
                     }
                 }
                 let score = e.score * m.score;
+                let mut sz = [e.pose.size_mm.x, e.pose.size_mm.y, e.pose.size_mm.z];
+                sz.sort_by(f64::total_cmp);
                 let faces = m.name.split('(').nth(1).and_then(|x| x.chars().next());
                 csv += &format!(
-                    "{},{fi},{score:.5},{:.5},{:.5},{},{},{},{:.4},{},{best:.3},{best_ign:.3},{}\n",
+                    "{},{fi},{score:.5},{:.5},{:.5},{},{},{},{:.4},{},{best:.3},{best_ign:.3},{},{:.0},{:.0},{:.0}\n",
                     set.name.replace(',', ""),
                     m.score,
                     e.score,
@@ -93,6 +95,9 @@ fn main() {
                     e.depth_penalty,
                     e.observed_axes.iter().filter(|o| **o).count(),
                     best_k.map_or(-1, |k| k as i64),
+                    sz[0],
+                    sz[1],
+                    sz[2],
                 );
                 let entry = |s: f64| EstEntry {
                     scene_id: f.scene_id,
