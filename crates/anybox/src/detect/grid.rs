@@ -40,6 +40,16 @@ pub(crate) fn jump_tol(cfg: &DetectConfig, z_mm: f32) -> f32 {
     cfg.depth_jump_abs_mm as f32 + cfg.depth_jump_rel as f32 * z_mm
 }
 
+/// The normal change that cuts colour patches at depth `z_mm`, degrees: `normal_cut_deg`, grown
+/// by `patch_normal_cut_deg_per_m` per metre beyond `patch_normal_cut_from_mm`, capped at
+/// `patch_normal_cut_max_deg` (and never below `normal_cut_deg`).
+pub(crate) fn patch_cut_deg(cfg: &DetectConfig, z_mm: f64) -> f64 {
+    let beyond_m = ((z_mm - cfg.patch_normal_cut_from_mm) / 1000.0).max(0.0);
+    (cfg.normal_cut_deg + cfg.patch_normal_cut_deg_per_m * beyond_m)
+        .min(cfg.patch_normal_cut_max_deg)
+        .max(cfg.normal_cut_deg)
+}
+
 impl Grid {
     pub(crate) fn build(
         rgb: Option<&RgbImage>,

@@ -10,7 +10,7 @@
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
-use super::grid::{jump_tol, Grid};
+use super::grid::{jump_tol, patch_cut_deg, Grid};
 use super::DetectConfig;
 use rayon::prelude::*;
 
@@ -199,7 +199,9 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
             }
             let (na, nb) = (&g.n[a], &g.n[b]);
             let known = dot(na, na) > 0.5 && dot(nb, nb) > 0.5;
-            if known && dot(na, nb) < cos_n {
+            let dn = dot(na, nb);
+            let crease = known && dn < cos_n;
+            let convex = if crease {
                 // A crease. Objects join across convex creases (a box's own edges) and split at
                 // concave ones (where two boxes, or a box and anything else, meet):
                 // (n_a − n_b)·(p_a − p_b) > 0 for a convex fold with normals facing the camera.
@@ -207,11 +209,24 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
                 let conv = (na[0] - nb[0]) * (pa[0] - pb[0])
                     + (na[1] - nb[1]) * (pa[1] - pb[1])
                     + (na[2] - nb[2]) * (pa[2] - pb[2]);
-                let convex = !cfg.blob_split_concave || conv > 0.0;
-                return (convex, false, false);
+                !cfg.blob_split_concave || conv > 0.0
+            } else {
+                true
+            };
+            // Colour patches cut at a crease only past their own cut, which grows with depth
+            // (see `DetectConfig::patch_normal_cut_deg_per_m`); the cosine is needed only for
+            // creases beyond the depth where it starts to grow.
+            if crease {
+                let z = g.z[i].min(g.z[j]);
+                if f64::from(z) <= cfg.patch_normal_cut_from_mm
+                    || dn < patch_cut_deg(cfg, f64::from(z)).to_radians().cos() as f32
+                {
+                    return (convex, false, false);
+                }
             }
+            let geo = !crease;
             if seam[i] || seam[j] {
-                return (true, true, false);
+                return (convex, geo, false);
             }
             if has_rgb {
                 let a1 = if n_back > 0 && g.z[i - stride] > 0.0 {
@@ -225,10 +240,10 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
                     j
                 };
                 if col_dist2(&g.c[a1], &g.c[b1]) > col2 {
-                    return (true, true, false);
+                    return (convex, geo, false);
                 }
             }
-            (true, true, true)
+            (convex, geo, true)
         };
     // Rows in parallel: each cell's bits depend on the grid only.
     let rows: Vec<[Vec<u8>; 3]> = (0..h)

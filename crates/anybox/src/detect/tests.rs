@@ -1304,6 +1304,84 @@ fn spurs_the_fill_stitched_on_are_opened_off_a_slab() {
 }
 
 #[test]
+fn colour_patches_cut_at_creases_only_past_a_depth_grown_normal_cut() {
+    let cfg = DetectConfig {
+        normal_cut_deg: 30.0,
+        patch_normal_cut_deg_per_m: 10.0,
+        patch_normal_cut_from_mm: 1000.0,
+        patch_normal_cut_max_deg: 60.0,
+        ..DetectConfig::default()
+    };
+    let cut = |c: &DetectConfig, z: f64| super::grid::patch_cut_deg(c, z);
+    assert_eq!(cut(&cfg, 500.0), 30.0);
+    assert_eq!(cut(&cfg, 1000.0), 30.0);
+    assert!((cut(&cfg, 2500.0) - 45.0).abs() < 1e-12);
+    assert_eq!(cut(&cfg, 9000.0), 60.0, "capped");
+    let flat = DetectConfig {
+        patch_normal_cut_deg_per_m: 0.0,
+        ..cfg.clone()
+    };
+    assert_eq!(cut(&flat, 2500.0), 30.0, "0 disables");
+    let low_cap = DetectConfig {
+        patch_normal_cut_max_deg: 20.0,
+        ..cfg
+    };
+    assert_eq!(cut(&low_cap, 2500.0), 30.0, "never below normal_cut_deg");
+}
+
+#[test]
+fn a_far_carton_whose_top_was_cut_up_by_depth_noise_is_found() {
+    // Generated pallet scene (seed 2026, scene 15, as `detect_dev` draws it): a 442 × 267 ×
+    // 208 mm carton about 2 m away. Its normals are noisy enough to make 30° creases inside its
+    // flat faces, so its colour patches fell apart into pieces too small to keep, and no
+    // detection overlapped it.
+    let sc = SynthConfig {
+        layout: Layout::Pallet,
+        scenes: 24,
+        views: 1,
+        distractors: None,
+        seed: 2026,
+        noise: NoiseModel::Realistic,
+        ..SynthConfig::default()
+    };
+    let v = generate_view(&sc, 15, 0);
+    let gt = v
+        .boxes
+        .iter()
+        .find(|b| {
+            let mut s = [b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z];
+            s.sort_by(f64::total_cmp);
+            s.iter()
+                .zip([208.0, 267.0, 442.0])
+                .all(|(a, d)| (a - d).abs() < 2.0)
+        })
+        .expect("the carton is in the scene");
+    assert!(
+        gt.pose.center_mm.norm() > 1800.0,
+        "{}",
+        gt.pose.center_mm.norm()
+    );
+    let (d, iou3d) = best_detection_estimated(&v, gt, &DetectConfig::default());
+    let mask_iou = d.mask.iou(&gt.mask_visib);
+    assert!(mask_iou > 0.8, "best mask IoU {mask_iou:.2}");
+    assert!(iou3d > 0.7, "3D IoU {iou3d:.2}");
+    // Premise: with the colour patches cut at 30° at every depth, nothing finds the carton.
+    let (d, _) = best_detection_estimated(
+        &v,
+        gt,
+        &DetectConfig {
+            patch_normal_cut_deg_per_m: 0.0,
+            ..DetectConfig::default()
+        },
+    );
+    let without = d.mask.iou(&gt.mask_visib);
+    assert!(
+        without < 0.3,
+        "best mask IoU without the grown cut {without:.2}"
+    );
+}
+
+#[test]
 fn opening_keeps_a_face_and_drops_a_line_leaving_it() {
     // A 20 × 12 px block against the image's left edge, with a 2 px line running on 15 px
     // past its right side.
