@@ -1070,6 +1070,18 @@ fn a_wall_behind_the_table_is_not_taken_for_the_floor() {
     );
 }
 
+/// The box of `view` whose sizes, sorted, are `sorted_mm` to within 2 mm.
+fn box_of_size(view: &anybox_synth::SynthView, sorted_mm: [f64; 3]) -> &anybox_synth::SynthBox {
+    view.boxes
+        .iter()
+        .find(|b| {
+            let mut s = [b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z];
+            s.sort_by(f64::total_cmp);
+            s.iter().zip(sorted_mm).all(|(a, d)| (a - d).abs() < 2.0)
+        })
+        .unwrap_or_else(|| panic!("no box of {sorted_mm:?} mm in the scene"))
+}
+
 /// The detection of `view` with the best mask IoU with `gt`'s visible mask, and the 3D IoU
 /// of the default estimator's box from that mask with `gt`.
 fn best_detection_estimated(
@@ -1281,17 +1293,7 @@ fn spurs_the_fill_stitched_on_are_opened_off_a_slab() {
     // which runs on past the slab's ends; those few hundred pixels stretched the estimate to
     // 466 mm.
     let v = table_d0_view(11);
-    let gt = v
-        .boxes
-        .iter()
-        .find(|b| {
-            let mut s = [b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z];
-            s.sort_by(f64::total_cmp);
-            s.iter()
-                .zip([52.0, 188.0, 315.0])
-                .all(|(a, d)| (a - d).abs() < 2.0)
-        })
-        .expect("the slab is in the scene");
+    let gt = box_of_size(&v, [52.0, 188.0, 315.0]);
     let best_iou3d = |cfg: &DetectConfig| best_detection_estimated(&v, gt, cfg).1;
     let with = best_iou3d(&DetectConfig::default());
     assert!(with > 0.75, "3D IoU with the opening {with:.2}");
@@ -1345,17 +1347,7 @@ fn a_far_carton_whose_top_was_cut_up_by_depth_noise_is_found() {
         ..SynthConfig::default()
     };
     let v = generate_view(&sc, 15, 0);
-    let gt = v
-        .boxes
-        .iter()
-        .find(|b| {
-            let mut s = [b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z];
-            s.sort_by(f64::total_cmp);
-            s.iter()
-                .zip([208.0, 267.0, 442.0])
-                .all(|(a, d)| (a - d).abs() < 2.0)
-        })
-        .expect("the carton is in the scene");
+    let gt = box_of_size(&v, [208.0, 267.0, 442.0]);
     assert!(
         gt.pose.center_mm.norm() > 1800.0,
         "{}",
