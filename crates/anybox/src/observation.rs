@@ -446,24 +446,27 @@ pub struct MaskRows {
 
 impl MaskRows {
     /// Prefix sums of an arbitrary per-pixel predicate over the rectangle `u0.., v0..` of
-    /// `width × height` px.
-    pub fn from_fn(
+    /// `width × height` px, given a row at a time: `row(v, out)` sets `out[k]` for pixel
+    /// `(u0 + k, v)` (`out` has `width` entries), so that callers can read their frames' rows
+    /// as slices.
+    pub fn from_rows(
         u0: u32,
         v0: u32,
         width: u32,
         height: u32,
-        f: impl Fn(u32, u32) -> bool,
+        row: impl Fn(u32, &mut [bool]),
     ) -> Self {
         let stride = width as usize + 1;
         let mut prefix = vec![0u32; stride * height as usize];
+        let mut bits = vec![false; width as usize];
         let mut count = 0usize;
-        for r in 0..height {
+        for (r, sums) in prefix.chunks_exact_mut(stride).enumerate() {
+            bits.fill(false);
+            row(v0 + r as u32, &mut bits);
             let mut acc = 0u32;
-            for k in 0..width {
-                if f(u0 + k, v0 + r) {
-                    acc += 1;
-                }
-                prefix[r as usize * stride + k as usize + 1] = acc;
+            for (s, &b) in sums[1..].iter_mut().zip(&bits) {
+                acc += u32::from(b);
+                *s = acc;
             }
             count += acc as usize;
         }
@@ -863,12 +866,15 @@ pub fn observe(
     let (eu0, ev0) = (u0.saturating_sub(grow), v0.saturating_sub(grow));
     let eu1 = (u0 + mask_rows.width + grow).min(depth.width);
     let ev1 = (v0 + mask_rows.height + grow).min(depth.height);
-    let explained_rows = MaskRows::from_fn(eu0, ev0, eu1 - eu0, ev1 - ev0, |u, v| {
+    let explained_rows = MaskRows::from_rows(eu0, ev0, eu1 - eu0, ev1 - ev0, |v, out| {
         // In bounds: the region is clipped to the image and both buffers were checked.
-        let i = v as usize * w + u as usize;
-        let d = depth.depth_mm[i];
-        let missing = d.is_nan() || d <= 0.0;
-        !mask.data[i] && ((missing && cfg.missing_explains) || (!missing && d < z_cut))
+        let line = v as usize * w + eu0 as usize;
+        let depth_row = &depth.depth_mm[line..line + out.len()];
+        let mask_row = &mask.data[line..line + out.len()];
+        for ((o, &d), &m) in out.iter_mut().zip(depth_row).zip(mask_row) {
+            let missing = d.is_nan() || d <= 0.0;
+            *o = !m && ((missing && cfg.missing_explains) || (!missing && d < z_cut));
+        }
     });
     Ok(Observation {
         points_mm: points,
@@ -1288,6 +1294,31 @@ mod tests {
                     proptest::prop_assert_eq!(got[y * w + x], want, "({}, {})", x, y);
                 }
             }
+        }
+
+        /// Row prefix sums of a predicate given a row at a time, against counting.
+        #[test]
+        fn row_prefix_sums_count_the_predicate(
+            (w, h) in (0usize..20, 0usize..12),
+            (u0, v0) in (0u32..50, 0u32..50),
+            seed in proptest::prelude::any::<u64>(),
+        ) {
+            let bit = |u: u32, v: u32| (seed.rotate_left(u.wrapping_mul(7) ^ v.wrapping_mul(13)) & 1) == 1;
+            let rows = MaskRows::from_rows(u0, v0, w as u32, h as u32, |v, out| {
+                assert_eq!(out.len(), w);
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = bit(u0 + k as u32, v);
+                }
+            });
+            let mut total = 0;
+            for r in 0..h {
+                for k in 0..=w {
+                    let want = (0..k).filter(|&j| bit(u0 + j as u32, v0 + r as u32)).count();
+                    proptest::prop_assert_eq!(rows.prefix[r * (w + 1) + k] as usize, want);
+                }
+                total += (0..w).filter(|&j| bit(u0 + j as u32, v0 + r as u32)).count();
+            }
+            proptest::prop_assert_eq!(rows.count, total);
         }
     }
 }
