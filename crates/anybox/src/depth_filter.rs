@@ -130,12 +130,12 @@ impl CellMinDepth {
                 .iter_mut()
                 .zip(depth.depth_mm[lo..hi].chunks(c as usize))
             {
-                for &d in chunk {
-                    // NaN and non-positive depths never win; +inf stays "no depth".
-                    if d > 0.0 && d < *slot {
-                        *slot = d;
-                    }
-                }
+                // NaN and non-positive depths never win; +inf stays "no depth". Branch-free:
+                // whether a pixel lowers its cell's minimum is not predictable.
+                *slot = chunk
+                    .iter()
+                    .map(|&d| if d > 0.0 { d } else { f32::INFINITY })
+                    .fold(*slot, f32::min);
             }
         }
         for m in &mut min_mm {
