@@ -80,8 +80,8 @@ pub struct CellMinDepth {
     /// Minimum depth per covered cell, mm; 0 = no valid pixel in the cell.
     pub min_mm: Vec<f32>,
     /// Cell column (from `ci0`) of each pixel column from `ci0 · cell_px`, and likewise rows:
-    /// [`Self::at`] looks the cell up instead of dividing (two integer divisions per sample
-    /// were a third of the depth filter's time).
+    /// [`Self::at`] looks the cell up instead of dividing twice per surface sample, in the
+    /// estimator's hottest loop.
     col_cell: Vec<u32>,
     row_cell: Vec<u32>,
 }
