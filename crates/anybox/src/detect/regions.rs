@@ -134,7 +134,8 @@ fn col_dist2(a: &[f32; 3], b: &[f32; 3]) -> f32 {
 
 /// Which 4-neighbour pairs join: bit 0 = right neighbour, bit 1 = down neighbour; for depth
 /// continuity only (`depth`), for the geometric cues (`geo`: depth and normals) and for all
-/// cues (`all`).
+/// cues (`all`: depth, colour, seams, and normals past their own depth-grown cut, so that a
+/// pair may join in `all` and not in `geo`).
 pub(crate) struct Joins {
     depth: Vec<u8>,
     geo: Vec<u8>,
@@ -149,12 +150,14 @@ pub(crate) enum Cues {
     Depth,
     /// Depth jumps and normal changes: smooth surfaces regardless of colour.
     Geometry,
-    /// Depth, normals, colour and seams: colour-uniform patches.
+    /// Depth, normals (past `DetectConfig::patch_normal_cut_deg_per_m`'s depth-grown cut),
+    /// colour and seams: colour-uniform patches.
     All,
 }
 
 /// Decides for every pair of 4-neighbouring cells whether they lie on one smooth surface
-/// (depth and normal cues) and whether they also look alike (colour change, printed seam).
+/// (depth and normal cues) and whether they lie on one colour patch (colour change, printed
+/// seam, and a normal cut that grows with depth).
 pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) -> Joins {
     let (w, h) = (g.w, g.h);
     // A normal at a cell mixes depth from normal_radius + smooth_radius cells around it:
