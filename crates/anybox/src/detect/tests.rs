@@ -1337,16 +1337,7 @@ fn a_far_carton_whose_top_was_cut_up_by_depth_noise_is_found() {
     // 208 mm carton about 2 m away. Its normals are noisy enough to make 30° creases inside its
     // flat faces, so its colour patches fell apart into pieces too small to keep, and no
     // detection overlapped it.
-    let sc = SynthConfig {
-        layout: Layout::Pallet,
-        scenes: 24,
-        views: 1,
-        distractors: None,
-        seed: 2026,
-        noise: NoiseModel::Realistic,
-        ..SynthConfig::default()
-    };
-    let v = generate_view(&sc, 15, 0);
+    let v = pallet_view(2026, 24, 15);
     let gt = box_of_size(&v, [208.0, 267.0, 442.0]);
     assert!(
         gt.pose.center_mm.norm() > 1800.0,
