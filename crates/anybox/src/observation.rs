@@ -512,27 +512,16 @@ impl MaskRows {
             return None;
         }
         let (bw, bh) = (u1 - u0 + 1, v1 - v0 + 1);
-        let stride = bw + 1;
-        let mut prefix = vec![0u32; stride * bh];
-        let mut count = 0usize;
-        for r in 0..bh {
-            let row = &mask.data[(v0 + r) * w + u0..(v0 + r) * w + u1 + 1];
-            let out = &mut prefix[r * stride..(r + 1) * stride];
-            let mut acc = 0u32;
-            for (k, b) in row.iter().enumerate() {
-                acc += *b as u32;
-                out[k + 1] = acc;
-            }
-            count += acc as usize;
-        }
-        Some(Self {
-            u0: u0 as u32,
-            v0: v0 as u32,
-            width: bw as u32,
-            height: bh as u32,
-            prefix,
-            count,
-        })
+        Some(Self::from_rows(
+            u0 as u32,
+            v0 as u32,
+            bw as u32,
+            bh as u32,
+            |v, out| {
+                let line = v as usize * w;
+                out.copy_from_slice(&mask.data[line + u0..line + u1 + 1]);
+            },
+        ))
     }
 
     /// Mask pixels in row `v`, columns `ua..=ub` (any values; clipped to the bounding box).
