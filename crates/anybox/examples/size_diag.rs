@@ -60,6 +60,7 @@ fn main() {
                         mask_pixels: &px,
                         points_mm: &[],
                         normals: &[],
+                        start_size_mm: None,
                     };
                     let mut lb = ['-'; 3];
                     if let Some(d) = anybox::silhouette::axis_directions(&e.pose, &f.intrinsics) {

@@ -500,6 +500,16 @@ pub fn robust_extent(
     rank_pair(scratch, k, n - 1 - k).unwrap_or((0.0, 0.0))
 }
 
+/// Extents of the observation's points along the columns of `frame`, mm: the robust extent
+/// ([`robust_extent`], `trim` of the points ignored at each end) per axis.
+pub fn frame_extents_mm(obs: &Observation, frame: &Matrix3<f64>, trim: f64) -> Vector3<f64> {
+    let mut scratch = Vec::with_capacity(obs.subsample.len());
+    Vector3::from_fn(|k, _| {
+        let (lo, hi) = robust_extent(obs, &frame.column(k).into_owned(), trim, &mut scratch);
+        hi - lo
+    })
+}
+
 /// Centre of a box of `size_mm` with rotation `rot` placed behind its visible faces (module docs).
 /// `extents[k]` is the robust `(lo, hi)` extent of the points along `rot`'s column `k`.
 pub fn place_center(
