@@ -9,7 +9,8 @@
 //! - `score`: the estimate scores higher, so the mask itself (partial, bleeding) misleads.
 //!
 //! Each line also gives the estimate's number of observed axes (`obs`; fewer than 3 means an
-//! extent came from scene context) and both sizes, mm.
+//! extent came from scene context) and both sizes, mm. The indented line under it estimates the
+//! same box from its ground-truth mask, and counts the pixels in which the two masks differ.
 //!
 //! `cargo run --release -p anybox --example detect_est_diag`
 //! Env: `SEED=<u64>` (default 2026), `ONLY=pallet|table-d0|table-d8|table-d32|shelf` (default
@@ -105,6 +106,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 e.pose.size_mm.as_slice(),
                 g.pose.size_mm.as_slice()
             );
+            // The same box from its ground-truth mask, and how the two masks differ.
+            if let Ok(eg) =
+                anybox::pipeline::estimate_box(&v.depth, &v.intrinsics, &g.mask_visib, &cfg)
+            {
+                let pairs = || g.mask_visib.data.iter().zip(&det.data);
+                let only_gt = pairs().filter(|(a, b)| **a && !**b).count();
+                let only_det = pairs().filter(|(a, b)| !**a && **b).count();
+                println!(
+                    "  from the GT mask: iou3d {:.2} obs {:?} size {:.0?}; detection obs {:?}, \
+                     depth penalty {:.3}; px only in GT {only_gt}, only in detection {only_det}",
+                    iou(&eg.pose, &g.pose, IouMethod::Exact),
+                    eg.observed_axes,
+                    eg.pose.size_mm.as_slice(),
+                    e.observed_axes,
+                    e.depth_penalty,
+                );
+            }
         }
     }
     println!(

@@ -6,7 +6,8 @@
 //!
 //! `cargo run --release -p anybox --example detect_rank`
 //! Env: `SEED=<u64>` (default 2026), `FRAMES=<n>` (views per set, default 24), `DETECT_CFG=<json>`
-//! (detector fields to change, as a partial `DetectConfig`), `CSV=<path>`
+//! (detector fields to change, as a partial `DetectConfig`), `EST_CFG=<json>` (the whole
+//! configuration as a partial `Config`, e.g. `{"scale":{"measured_start":false}}`), `CSV=<path>`
 //! (one row per estimate: set, frame, score, detector score, estimator score, faces,
 //! alternative, mask pixels, depth penalty, observed axes, best 3D IoU with a counted ground
 //! truth and with an ignored one, that ground truth's index).
@@ -36,7 +37,11 @@ fn main() {
     };
     let (seed, frames) = (env("SEED", 2026), env("FRAMES", 24) as usize);
     // `DETECT_CFG=<json>`: detector fields to change (partial `DetectConfig`).
-    let mut cfg = Config::default();
+    // `EST_CFG=<json>`: the whole configuration (partial `Config`; missing = defaults).
+    let mut cfg: Config = match std::env::var("EST_CFG") {
+        Ok(j) => serde_json::from_str(&j).expect("EST_CFG: a Config JSON"),
+        Err(_) => Config::default(),
+    };
     if let Ok(j) = std::env::var("DETECT_CFG") {
         cfg.detect = serde_json::from_str(&j).expect("DETECT_CFG: a DetectConfig JSON");
     }
