@@ -2,7 +2,8 @@
 //!
 //! [`estimate_box`]: observation ([`crate::observation::observe`]) → scale search with the pose
 //! estimator in the loop ([`crate::scale::scale_search`], which makes the first pose estimate
-//! from the template) → hidden dimensions from context ([`crate::context`]) with one last pose
+//! from the point extents along the observation's main face frame, or with
+//! `scale.measured_start` off from the template) → hidden dimensions from context ([`crate::context`]) with one last pose
 //! estimate when they changed the size → canonical axes (`anybox_geom::symmetry::canonicalize`)
 //! with the observed-axis flags carried along. An estimate scoring below
 //! `observation.retry_below_score` is redone once from the mask cut down to its box faces

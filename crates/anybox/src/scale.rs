@@ -121,7 +121,8 @@ pub struct ScaleConfig {
     /// benchmark (ground-truth masks, seeds 2026 / 7 / 11) AP@0.5 of all boxes went 0.899 /
     /// 0.858 / 0.889 → 0.907 / 0.858 / 0.890; on the detector's masks (48 views per set, the
     /// same seeds) the mean AP@0.5 / AP@0.7 of the 15 sets went 0.585 / 0.432 → 0.592 / 0.441,
-    /// tables gaining the most. The number of pose estimates is the same.
+    /// tables gaining the most. It costs no pose estimate, and the loop converges sooner
+    /// (3.80 → 3.61 pose estimates per box on the generated benchmark, seed 2026).
     pub measured_start: bool,
     /// PointFit: percentile (each end, %) of point coordinates taken as the face edges.
     pub pointfit_percentile: f64,
