@@ -111,7 +111,11 @@ pub struct ScaleConfig {
     /// the axes stay put). The paper re-estimates from scratch; with a prior, a wrong axis
     /// assignment made for the initial template can never be left, so default false.
     pub search_with_prior: bool,
-    /// PointFit: alternations of point-extent size fit and pose estimate.
+    /// PointFit: alternations of point-extent size fit and pose estimate (at most; the loop
+    /// stops once no extent moves by 1 mm). Default 2: from the measured start
+    /// ([`ScaleConfig::measured_start`]) a third alternation changed nothing measurable (shares
+    /// of boxes at IoU ≥ 0.5 and ≥ 0.7 identical on the generated benchmark, seeds 2026 / 7 / 11,
+    /// ground-truth masks) and cost 0.6 pose estimates per box.
     pub pointfit_iters: u32,
     /// PointFit: start from the size measured off the observation
     /// ([`ScaleInputs::start_size_mm`], when given) instead of the template. The template's pose
@@ -198,7 +202,7 @@ impl Default for ScaleConfig {
             occluder_margin_mm: 20.0,
             decoupled: false,
             search_with_prior: false,
-            pointfit_iters: 3,
+            pointfit_iters: 2,
             pointfit_percentile: 0.5,
             pointfit_edge_px: 1.0,
             pointfit_mask_rays: true,
