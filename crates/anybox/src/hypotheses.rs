@@ -626,6 +626,50 @@ mod tests {
     use super::*;
 
     #[test]
+    fn frame_extents_measure_the_visible_faces_along_the_frame() {
+        use crate::observation::{observe, ObservationConfig};
+        use crate::pipeline::test_scene::{cam, render};
+        let k = cam();
+        let size = Vector3::new(260.0, 170.0, 120.0);
+        let extents = |b: &OrientedBox, frame: &Matrix3<f64>| {
+            let (depth, masks) = render(&[*b], &[], &k, 640, 480);
+            let obs = observe(&depth, &k, &masks[0], &ObservationConfig::default()).unwrap();
+            frame_extents_mm(&obs, frame, 0.0)
+        };
+        // Three faces in view: together they span the whole box along each of its axes. The
+        // points are a subsample of pixel centres, so the extents fall a little short.
+        let turned = OrientedBox::new(
+            Rotation3::from_euler_angles(0.5, -0.6, 0.4),
+            Vector3::new(30.0, -20.0, 950.0),
+            size,
+        )
+        .unwrap();
+        let e = extents(&turned, turned.rotation.matrix());
+        for a in 0..3 {
+            assert!(
+                e[a] > 0.9 * size[a] && e[a] < size[a] + 2.0,
+                "axis {a}: {e:?} for {size:?}"
+            );
+        }
+        // One face, straight on: nothing along the viewing axis; along a frame turned by 45°
+        // about it, the face's projection onto the diagonals, (260 + 170) / √2 mm.
+        let front =
+            OrientedBox::new(Rotation3::identity(), Vector3::new(0.0, 0.0, 1000.0), size).unwrap();
+        let e = extents(&front, &Matrix3::identity());
+        assert!(e.z < 1.0, "{e:?}");
+        assert!(
+            e.x > 0.9 * 260.0 && e.x < 262.0 && e.y > 0.9 * 170.0 && e.y < 172.0,
+            "{e:?}"
+        );
+        let diag = Rotation3::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_4);
+        let e = extents(&front, diag.matrix());
+        let want = (260.0 + 170.0) / std::f64::consts::SQRT_2;
+        for a in 0..2 {
+            assert!((e[a] - want).abs() < 0.1 * want, "{e:?} vs {want}");
+        }
+    }
+
+    #[test]
     fn min_area_rect_finds_rotated_rectangle() {
         let t = 0.37f64;
         let (d, n) = (
