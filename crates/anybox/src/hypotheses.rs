@@ -344,6 +344,24 @@ pub fn analyse(obs: &Observation, cfg: &HypothesisConfig) -> FrameSet {
     }
 }
 
+/// [`analyse`] of `obs` under `cfg`, from the observation's cache: filled on the first call,
+/// reused by the later ones (the scale loop's pose estimates); computed afresh, uncached, for a
+/// `cfg` other than the one the cache was filled with.
+pub(crate) fn cached_analysis<'a>(
+    obs: &'a Observation,
+    cfg: &HypothesisConfig,
+) -> std::borrow::Cow<'a, FrameSet> {
+    let cached = obs
+        .cache
+        .frames
+        .get_or_init(|| (cfg.clone(), analyse(obs, cfg)));
+    if cached.0 == *cfg {
+        std::borrow::Cow::Borrowed(&cached.1)
+    } else {
+        std::borrow::Cow::Owned(analyse(obs, cfg))
+    }
+}
+
 /// Candidate frames (columns = orthonormal right-handed axes, camera frame) from the geometry,
 /// de-duplicated modulo axis relabeling.
 pub fn candidate_frames(obs: &Observation, cfg: &HypothesisConfig) -> Vec<Matrix3<f64>> {

@@ -3,9 +3,9 @@
 //! [`estimate_box`]: observation ([`crate::observation::observe`]) → scale search with the pose
 //! estimator in the loop ([`crate::scale::scale_search`], which makes the first pose estimate
 //! from the point extents along the observation's main face frame, or with
-//! `scale.measured_start` off from the template) → hidden dimensions from context ([`crate::context`]) with one last pose
-//! estimate when they changed the size → canonical axes (`anybox_geom::symmetry::canonicalize`)
-//! with the observed-axis flags carried along. An estimate scoring below
+//! `scale.measured_start` off from the template) → hidden dimensions from context
+//! ([`crate::context`]) with one last pose estimate when they changed the size → canonical axes
+//! (`anybox_geom::symmetry::canonicalize`) with the observed-axis flags carried along. An estimate scoring below
 //! `observation.retry_below_score` is redone once from the mask cut down to its box faces
 //! ([`crate::observation::box_faces_mask`]); the better-scoring of the two is kept.
 //!
@@ -118,15 +118,12 @@ fn stage_from_mask(
     let mask = trimmed.as_ref().unwrap_or(mask);
     let obs = observe(depth, k, mask, &cfg.observation)?;
     let pixels = mask_pixels(mask);
-    // The measured start: the point extents along the main frame (the frames are cached in
-    // `obs` for the pose estimates that follow).
+    // The measured start: the point extents along the main frame (the analysis lands in the
+    // observation's cache, where the pose estimates that follow find it).
     let start_size_mm = if cfg.scale.measured_start && cfg.scale.mode == ScaleMode::PointFit {
         let hyp = &cfg.pose.hypotheses;
-        let fs = obs
-            .cache
+        crate::hypotheses::cached_analysis(&obs, hyp)
             .frames
-            .get_or_init(|| (hyp.clone(), crate::hypotheses::analyse(&obs, hyp)));
-        fs.1.frames
             .first()
             .map(|f| crate::hypotheses::frame_extents_mm(&obs, f, hyp.extent_trim))
     } else {

@@ -42,7 +42,7 @@ use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 
 use crate::depth_filter::{depth_penalty, CellMinDepth, DepthFilterConfig, SurfaceSamples};
 use crate::error::EstimateError;
-use crate::hypotheses::{analyse, generate, robust_extent, FrameSet, HypothesisConfig};
+use crate::hypotheses::{cached_analysis, generate, robust_extent, HypothesisConfig};
 use crate::observation::Observation;
 use crate::refine::{
     align_translation, closest_on_faces, inlier_stats, refine_pose, visible_faces, RefineConfig,
@@ -534,15 +534,7 @@ pub fn estimate_pose(
         p.center_mm.iter().all(|v| v.is_finite())
             && p.rotation.matrix().iter().all(|v| v.is_finite())
     });
-    let cached = obs
-        .cache
-        .frames
-        .get_or_init(|| (cfg.hypotheses.clone(), analyse(obs, &cfg.hypotheses)));
-    let fs: Cow<FrameSet> = if cached.0 == cfg.hypotheses {
-        Cow::Borrowed(&cached.1)
-    } else {
-        Cow::Owned(analyse(obs, &cfg.hypotheses))
-    };
+    let fs = cached_analysis(obs, &cfg.hypotheses);
     let adapted = adapt_to_noise(cfg, fs.noise_mm);
     let cfg = &adapted;
     let hyps = generate(obs, &fs.frames, size_mm, prior, &cfg.hypotheses);
