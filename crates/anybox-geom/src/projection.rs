@@ -180,9 +180,22 @@ pub fn ray_box_intersection(
     dir: &Vector3<f64>,
     b: &OrientedBox,
 ) -> Option<(f64, f64, usize)> {
-    let o = b.to_local(origin);
-    let d = b.rotation.inverse() * dir;
-    let h = b.half_size_mm();
+    ray_box_intersection_local(
+        &b.to_local(origin),
+        &(b.rotation.inverse() * dir),
+        &b.half_size_mm(),
+    )
+}
+
+/// [`ray_box_intersection`] with the ray already in the box frame: `origin` and `dir` relative
+/// to the box centre along its axes, `half_size` the box's half extents (mm). For many rays
+/// against one box, transform once and call this per ray.
+pub fn ray_box_intersection_local(
+    origin: &Vector3<f64>,
+    dir: &Vector3<f64>,
+    half_size: &Vector3<f64>,
+) -> Option<(f64, f64, usize)> {
+    let (o, d, h) = (origin, dir, half_size);
     if !o.iter().chain(d.iter()).all(|x| x.is_finite()) || d.norm_squared() == 0.0 {
         return None;
     }
