@@ -287,6 +287,66 @@ pub fn depth_counts(
     (in_front, compared)
 }
 
+/// Share of a cuboid's silhouette through which the camera sees *past* it: pixels (of an even
+/// grid of about `max_samples` over the projected silhouette, with valid depth) whose observed
+/// depth lies behind the cuboid's front surface along that pixel's ray by more than
+/// `max(tol_mm, tol_rel · z)`, over all such pixels. Ours, not the paper's: [`depth_penalty`]
+/// catches a box in front of the observation; this catches one where the camera sees empty
+/// space, e.g. the gap between two boxes read as one. Pixels where the observation is nearer
+/// (an occluder) or at the surface count as consistent.
+///
+/// Counting stops once more than `stop_above` of the silhouette's samples are known to see
+/// past it; the share returned is then above `stop_above` but not exact (pass 1 for the exact
+/// share). `None` when the cuboid is not wholly in front of the camera or no silhouette pixel
+/// has valid depth.
+pub fn see_through_fraction(
+    pose: &OrientedBox,
+    depth: &DepthMap,
+    intrinsics: &Intrinsics,
+    max_samples: usize,
+    tol_mm: f64,
+    tol_rel: f64,
+    stop_above: f64,
+) -> Option<f64> {
+    let hull = anybox_geom::projection::silhouette_hull_px(pose, intrinsics)?;
+    let all = crate::silhouette::convex_spans(&hull, depth.width, depth.height);
+    let area: usize = all.iter().map(|&(_, u0, u1)| (u1 - u0) as usize + 1).sum();
+    // Every `stride`-th row and column: about `max_samples` pixels.
+    let stride = ((area as f64 / max_samples.max(1) as f64).sqrt().ceil() as usize).max(1);
+    let spans: Vec<(u32, u32, u32)> = all.into_iter().step_by(stride).collect();
+    let samples: usize = spans
+        .iter()
+        .map(|&(_, u0, u1)| (u1 - u0) as usize / stride + 1)
+        .sum();
+    // `through / compared > stop_above` is sure once `through` passes this (compared ≤ samples).
+    let enough = (stop_above * samples as f64).floor();
+    // Rays in the box frame: the camera centre once, each pixel's direction by one rotation.
+    let to_box = pose.rotation.inverse();
+    let origin = pose.to_local(&Point3::origin());
+    let half = pose.half_size_mm();
+    let (mut compared, mut through) = (0usize, 0usize);
+    for (v, u0, u1) in spans {
+        for u in (u0..=u1).step_by(stride) {
+            let Some(z) = depth.get(u, v) else { continue };
+            // The ray has unit z, so `t` is the depth of the entry point, mm.
+            let ray = to_box * intrinsics.ray(f64::from(u), f64::from(v));
+            let Some((t_enter, _, _)) =
+                anybox_geom::projection::ray_box_intersection_local(&origin, &ray, &half)
+            else {
+                continue;
+            };
+            compared += 1;
+            if f64::from(z) > t_enter + tol_mm.max(tol_rel * t_enter) {
+                through += 1;
+                if through as f64 > enough {
+                    return Some(through as f64 / compared as f64);
+                }
+            }
+        }
+    }
+    (compared > 0).then(|| through as f64 / compared as f64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -435,5 +495,84 @@ mod tests {
             OrientedBox::new(Rotation3::identity(), Vector3::new(0.0, 0.0, 1000.0), size).unwrap();
         let expect = s.local_mm.iter().filter(|l| l.z + 1000.0 < 1000.0).count() as f64 / 1000.0;
         assert!((depth_penalty(&straddle, &s, &cells, &k, 0.0) - expect).abs() < 1e-12);
+    }
+
+    /// A 400 × 300 × 200 mm box straight ahead, front face at z = 1400 mm: its silhouette is
+    /// the front face's rectangle (the back face projects inside it). Left of the image centre
+    /// the depth shows that face; right of it, `right_mm`.
+    fn half_seen(right_mm: f32) -> (OrientedBox, DepthMap, Intrinsics, [u32; 4]) {
+        let k = Intrinsics::new(600.0, 600.0, 320.0, 240.0).unwrap();
+        let b = OrientedBox::new(
+            Rotation3::identity(),
+            Vector3::new(0.0, 0.0, 1500.0),
+            Vector3::new(400.0, 300.0, 200.0),
+        )
+        .unwrap(); // positive sizes: cannot fail
+                   // Pixel centres inside the front face: |u − 320| ≤ 600·200/1400, |v − 240| ≤ 600·150/1400.
+        let (hu, hv) = (600.0 * 200.0 / 1400.0, 600.0 * 150.0 / 1400.0);
+        let rect = [
+            (320.0f64 - hu).ceil() as u32,
+            (320.0f64 + hu).floor() as u32,
+            (240.0f64 - hv).ceil() as u32,
+            (240.0f64 + hv).floor() as u32,
+        ];
+        let mut d = DepthMap::zeros(640, 480);
+        for v in 0..480u32 {
+            for u in 0..640u32 {
+                let inside = (rect[0]..=rect[1]).contains(&u) && (rect[2]..=rect[3]).contains(&v);
+                d.depth_mm[(v * 640 + u) as usize] = match (inside, u < 320) {
+                    (true, true) => 1400.0,
+                    (true, false) => right_mm,
+                    (false, _) => 3000.0,
+                };
+            }
+        }
+        (b, d, k, rect)
+    }
+
+    #[test]
+    fn see_through_share_counts_the_pixels_behind_the_front() {
+        // Right half shows a wall 1.6 m behind the face: the share is that half's pixel count.
+        let (b, d, k, r) = half_seen(3000.0);
+        let cols = f64::from(r[1] - r[0] + 1);
+        let expect = f64::from(r[1] - 320 + 1) / cols;
+        let exact = see_through_fraction(&b, &d, &k, usize::MAX, 25.0, 0.01, 1.0).unwrap();
+        assert!((exact - expect).abs() < 1e-9, "{exact} vs {expect}");
+        let sampled = see_through_fraction(&b, &d, &k, 1000, 25.0, 0.01, 1.0).unwrap();
+        assert!((sampled - expect).abs() < 0.03, "{sampled} vs {expect}");
+        // Stopping early still reports a share above the stop.
+        let early = see_through_fraction(&b, &d, &k, usize::MAX, 25.0, 0.01, 0.2).unwrap();
+        assert!(early > 0.2 && early <= 1.0, "{early}");
+        // Within the tolerance of the face (1 % of 1400 mm = 14 < 25 mm): nothing seen past.
+        let (b, d, k, _) = half_seen(1420.0);
+        assert_eq!(
+            see_through_fraction(&b, &d, &k, 1000, 25.0, 0.01, 1.0),
+            Some(0.0)
+        );
+        // … but past a 10 mm tolerance, a 20 mm step counts (1 % of 1400 mm = 14 mm).
+        let s = see_through_fraction(&b, &d, &k, usize::MAX, 10.0, 0.01, 1.0).unwrap();
+        assert!((s - expect).abs() < 1e-9, "{s}");
+        // An occluder in front of the right half hides it: consistent, not seen past.
+        let (b, d, k, _) = half_seen(800.0);
+        assert_eq!(
+            see_through_fraction(&b, &d, &k, 1000, 25.0, 0.01, 1.0),
+            Some(0.0)
+        );
+        // No valid depth under the silhouette, or a box behind the camera: no answer.
+        let empty = DepthMap::zeros(640, 480);
+        assert_eq!(
+            see_through_fraction(&b, &empty, &k, 1000, 25.0, 0.01, 1.0),
+            None
+        );
+        let behind = OrientedBox::new(
+            Rotation3::identity(),
+            Vector3::new(0.0, 0.0, -1500.0),
+            Vector3::new(400.0, 300.0, 200.0),
+        )
+        .unwrap();
+        assert_eq!(
+            see_through_fraction(&behind, &d, &k, 1000, 25.0, 0.01, 1.0),
+            None
+        );
     }
 }
