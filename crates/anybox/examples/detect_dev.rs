@@ -18,7 +18,8 @@
 //! the estimated and best GT's sorted sizes; `UNION=<r>` lists every pair of estimates
 //! whose axes agree and whose union is at most r times their volume (`pipeline::tiled_union`,
 //! e.g. r = 1.2) with the fill, the parts' and the union's best
-//! 3D IoU. `RAW=1` with a dump dir also writes the image with invalid depth in red. `REPS=n`
+//! 3D IoU, and the share of the union's silhouette seen past it (`st`, tolerance 10 and 25 mm;
+//! `depth_filter::see_through_fraction`, as `pipeline::gap_unions` uses it). `RAW=1` with a dump dir also writes the image with invalid depth in red. `REPS=n`
 //! times the detector (with `EST=1`, detection and estimation) as the fastest of n runs.
 //! `DETECT_DEBUG=1` prints the detector's `log::debug!` diagnostics (planes, regions, face
 //! pairs, selection) to stderr.
@@ -611,11 +612,25 @@ fn main() {
                             let (ia, ka) = best_iou(&ea.pose);
                             let (ic, kc) = best_iou(&ec.pose);
                             let (iu, ku) = best_iou(&u);
+                            let st = |tol: f64| {
+                                anybox::depth_filter::see_through_fraction(
+                                    &u,
+                                    &v.depth,
+                                    &v.intrinsics,
+                                    1000,
+                                    tol,
+                                    0.01,
+                                    1.0,
+                                )
+                                .unwrap_or(-1.0)
+                            };
                             println!(
-                                "  union {name} s{s} {a} {c} fill {:.2} parts {ia:.2} (gt {ka}) {ic:.2} (gt {kc}) union {iu:.2} (gt {ku}) scores {:.3} {:.3}",
+                                "  union {name} s{s} {a} {c} fill {:.2} parts {ia:.2} (gt {ka}) {ic:.2} (gt {kc}) union {iu:.2} (gt {ku}) scores {:.3} {:.3} st {:.3} {:.3}",
                                 (va + vc) / vu,
                                 dets[a].score * ea.score,
-                                dets[c].score * ec.score
+                                dets[c].score * ec.score,
+                                st(10.0),
+                                st(25.0)
                             );
                         }
                     }

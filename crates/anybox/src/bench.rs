@@ -455,14 +455,14 @@ pub struct DetectionResult {
     /// the estimator rejects is not counted.
     pub n_detections: usize,
     /// Alternative readings per frame, summed: the detector's
-    /// ([`crate::detect::Detection::alternative`]) and the tiled unions of split cartons
-    /// ([`crate::pipeline::tiled_unions`]); evaluated with the detections, not counted in
+    /// ([`crate::detect::Detection::alternative`]) and the unions of split cartons
+    /// ([`crate::pipeline::tiled_unions`], [`crate::pipeline::gap_unions`]); evaluated with the detections, not counted in
     /// `n_detections`.
     pub n_alternatives: usize,
     /// Estimates whose best 3D IoU with every ground truth of the frame is ≤ 0.1 (clear false
     /// positives), summed.
     pub n_false_positives: usize,
-    /// Whole-frame time (detection + estimation of every box + tiled unions, all cores; the
+    /// Whole-frame time (detection + estimation of every box + unions, all cores; the
     /// fastest of `reps` runs), ms.
     pub frame_ms: Vec<f64>,
     /// Runs per frame behind `frame_ms`.
@@ -583,7 +583,7 @@ pub fn detection_table(title: &str, rows: &[DetectionResult]) -> String {
         Some(n) if n > 1 => format!(", the fastest of {n} runs of each frame"),
         _ => String::new(),
     };
-    let _ = writeln!(s, "**{title}** — built-in detector (`--masks detect`) + default estimator on whole frames; exact 3D IoU, VOC AP with false positives counted; ground truths below the visibility threshold ignored; frame time = detection + estimation of every box, all cores ({} threads){}. `detections`: the detector's, + alternative readings (the detector's other side of a split decision, and tiled unions of split cartons; scored low, flagged in `estimate` output). `AP@0.5, GT masks`: the same frames and estimator with the ground-truth visible masks in place of detections (perfect segmentation; not timed).\n", rayon::current_num_threads(), reps_note);
+    let _ = writeln!(s, "**{title}** — built-in detector (`--masks detect`) + default estimator on whole frames; exact 3D IoU, VOC AP with false positives counted; ground truths below the visibility threshold ignored; frame time = detection + estimation of every box, all cores ({} threads){}. `detections`: the detector's, + alternative readings (the detector's other side of a split decision, and unions of split cartons; scored low, flagged in `estimate` output). `AP@0.5, GT masks`: the same frames and estimator with the ground-truth visible masks in place of detections (perfect segmentation; not timed).\n", rayon::current_num_threads(), reps_note);
     let _ = writeln!(s, "| set | frames | GT boxes | detections | clear FPs (IoU ≤ 0.1) | AP@0.25 | AP@0.5 | AP@0.7 | AP@0.5, GT masks | ms/frame med | ms/frame p90 |");
     let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
     for r in rows {

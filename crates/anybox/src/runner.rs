@@ -140,8 +140,9 @@ pub fn run_frame(
 
 /// One frame with the built-in detector (`--masks detect`, dataset and single-frame mode;
 /// records carry scene and image id 0): detection, the
-/// estimator on every detection ([`Config::for_detected_masks`]), then the tiled unions of
-/// split cartons ([`crate::pipeline::tiled_unions`]). Alternative readings carry
+/// estimator on every detection ([`Config::for_detected_masks`]), then the unions of split
+/// cartons ([`crate::pipeline::tiled_unions`], and [`crate::pipeline::gap_unions`] across a
+/// hidden gap). Alternative readings carry
 /// `"alternative": true` in `extra`: the detector's ([`crate::detect::Detection::alternative`])
 /// and the unions, which also carry `"parts"` (the two detections' mask names); drop them
 /// where one reading per box is wanted.
@@ -161,7 +162,15 @@ pub fn run_detected_frame(
         .filter(|(_, r)| r.extra.get("alternative").is_none())
         .filter_map(|(i, r)| r.pose().ok().map(|p| (i, (p, r.score))))
         .unzip();
-    for u in crate::pipeline::tiled_unions(&scored, &config.detect) {
+    let unions = crate::pipeline::tiled_unions(&scored, &config.detect)
+        .into_iter()
+        .chain(crate::pipeline::gap_unions(
+            &scored,
+            depth,
+            intrinsics,
+            &config.detect,
+        ));
+    for u in unions {
         let [a, b] = u.parts.map(|k| idx[k]);
         let name = |i: usize| out.estimates[i].extra.get("mask").cloned();
         let mut rec =

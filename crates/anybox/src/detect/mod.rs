@@ -311,6 +311,19 @@ pub struct DetectConfig {
     pub tiled_union_min_fill: f64,
     /// ... and share at most this fraction of the smaller part's volume. Default 0.1.
     pub tiled_union_max_shared: f64,
+    /// Gap unions ([`crate::pipeline::gap_unions`]): pairs that fill their union by at least
+    /// this fraction (and less than `tiled_union_min_fill`) are also joined when the camera
+    /// cannot see past the union. At or above `tiled_union_min_fill`: off. Default 0.45.
+    pub gap_union_min_fill: f64,
+    /// ... when at most this fraction of the union's silhouette (pixels with valid depth) shows
+    /// a surface behind the union's front. Default 0.1.
+    pub gap_union_max_see_through: f64,
+    /// A pixel shows a surface behind the union when its depth exceeds the union's front
+    /// there by more than the larger of this, mm (default 25) ...
+    pub gap_union_see_through_tol_mm: f64,
+    /// ... and this fraction of the front's depth (default 0.01, 1 %: sensor noise grows with
+    /// depth).
+    pub gap_union_see_through_tol_rel: f64,
     /// A surface-level candidate splits into its colour-level candidates when at least this
     /// many seam cells lie next to two of them with coplanar faces (flush cartons). Default 6.
     pub split_min_seam_cells: u32,
@@ -533,6 +546,10 @@ impl Default for DetectConfig {
             tiled_union_max_angle_deg: 10.0,
             tiled_union_min_fill: 0.83,
             tiled_union_max_shared: 0.1,
+            gap_union_min_fill: 0.45,
+            gap_union_max_see_through: 0.1,
+            gap_union_see_through_tol_mm: 25.0,
+            gap_union_see_through_tol_rel: 0.01,
             split_min_seam_cells: 6,
             split_flap_check: true,
             split_flap_max_colour_delta: 40.0,
