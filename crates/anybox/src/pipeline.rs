@@ -498,33 +498,7 @@ pub fn tiled_unions(
     boxes: &[(OrientedBox, f64)],
     cfg: &crate::detect::DetectConfig,
 ) -> Vec<TiledUnion> {
-    let mut out = Vec::new();
-    if cfg.tiled_union_score_factor <= 0.0 {
-        return out;
-    }
-    for a in 0..boxes.len() {
-        for b in a + 1..boxes.len() {
-            let ((pa, sa), (pb, sb)) = (&boxes[a], &boxes[b]);
-            let Some(u) = tiled_union(
-                pa,
-                pb,
-                cfg.tiled_union_max_angle_deg,
-                cfg.tiled_union_min_fill,
-            ) else {
-                continue;
-            };
-            let shared = anybox_geom::iou::intersection_volume_mm3(pa, pb);
-            if shared > cfg.tiled_union_max_shared * pa.volume_mm3().min(pb.volume_mm3()) {
-                continue;
-            }
-            out.push(TiledUnion {
-                parts: [a, b],
-                pose: u,
-                score: sa.min(*sb) * cfg.tiled_union_score_factor,
-            });
-        }
-    }
-    out
+    union_pairs(boxes, cfg, cfg.tiled_union_min_fill, |_, _| true)
 }
 
 /// More alternative readings, for the pairs [`tiled_unions`] leaves out because a gap lies
@@ -547,39 +521,50 @@ pub fn gap_unions(
     intrinsics: &anybox_geom::Intrinsics,
     cfg: &crate::detect::DetectConfig,
 ) -> Vec<TiledUnion> {
-    let mut out = Vec::new();
-    if cfg.tiled_union_score_factor <= 0.0 || cfg.gap_union_min_fill >= cfg.tiled_union_min_fill {
-        return out;
+    if cfg.gap_union_min_fill >= cfg.tiled_union_min_fill {
+        return Vec::new();
     }
-    for a in 0..boxes.len() {
-        for b in a + 1..boxes.len() {
-            let ((pa, sa), (pb, sb)) = (&boxes[a], &boxes[b]);
-            let Some(u) = tiled_union(
-                pa,
-                pb,
-                cfg.tiled_union_max_angle_deg,
-                cfg.gap_union_min_fill,
-            ) else {
-                continue;
-            };
-            // Pairs at or above the tiled fill are `tiled_unions`'.
-            if pa.volume_mm3() + pb.volume_mm3() >= cfg.tiled_union_min_fill * u.volume_mm3() {
-                continue;
-            }
-            let shared = anybox_geom::iou::intersection_volume_mm3(pa, pb);
-            if shared > cfg.tiled_union_max_shared * pa.volume_mm3().min(pb.volume_mm3()) {
-                continue;
-            }
-            let seen_past = crate::depth_filter::see_through_fraction(
-                &u,
+    union_pairs(boxes, cfg, cfg.gap_union_min_fill, |u, fill| {
+        // Pairs at or above the tiled fill are `tiled_unions`'.
+        fill < cfg.tiled_union_min_fill
+            && crate::depth_filter::see_through_fraction(
+                u,
                 depth,
                 intrinsics,
                 GAP_UNION_SAMPLES,
                 cfg.gap_union_see_through_tol_mm,
                 cfg.gap_union_see_through_tol_rel,
                 cfg.gap_union_max_see_through,
-            );
-            if seen_past.is_none_or(|f| f > cfg.gap_union_max_see_through) {
+            )
+            .is_some_and(|f| f <= cfg.gap_union_max_see_through)
+    })
+}
+
+/// The unions of the pairs of `boxes` that tile one cuboid ([`tiled_union`] with `min_fill`),
+/// share at most `tiled_union_max_shared` of the smaller part's volume and pass `keep(union,
+/// fill)`, scored `tiled_union_score_factor` × the lower part's score; empty when that factor
+/// is 0.
+fn union_pairs(
+    boxes: &[(OrientedBox, f64)],
+    cfg: &crate::detect::DetectConfig,
+    min_fill: f64,
+    keep: impl Fn(&OrientedBox, f64) -> bool,
+) -> Vec<TiledUnion> {
+    let mut out = Vec::new();
+    if cfg.tiled_union_score_factor <= 0.0 {
+        return out;
+    }
+    for a in 0..boxes.len() {
+        for b in a + 1..boxes.len() {
+            let ((pa, sa), (pb, sb)) = (&boxes[a], &boxes[b]);
+            let Some(u) = tiled_union(pa, pb, cfg.tiled_union_max_angle_deg, min_fill) else {
+                continue;
+            };
+            let shared = anybox_geom::iou::intersection_volume_mm3(pa, pb);
+            if shared > cfg.tiled_union_max_shared * pa.volume_mm3().min(pb.volume_mm3()) {
+                continue;
+            }
+            if !keep(&u, (pa.volume_mm3() + pb.volume_mm3()) / u.volume_mm3()) {
                 continue;
             }
             out.push(TiledUnion {
