@@ -96,17 +96,14 @@ pub(crate) fn support_mask(
     // does not count.
     // A plane facing away from the up hint (a wall behind a table, seen from above, faces
     // down the image) is not the floor; without an allowed candidate, any is.
-    let hint = Vector3::from(cfg.support_up_hint).try_normalize(1e-9);
-    let cos_hint = cfg.support_up_max_angle_deg.to_radians().cos();
-    let pick_up = |respect_hint: bool| {
+    let up = up_from_planes(
         cands
             .iter()
             .filter(|c| c.2 || (cfg.support_up_from_standing && c.3))
-            .filter(|c| !respect_hint || hint.is_none_or(|h| c.1.normal.dot(&h) >= cos_hint))
-            .max_by(|a, b| a.1.area_mm2.total_cmp(&b.1.area_mm2))
-            .map(|c| c.1.normal)
-    };
-    let up = pick_up(true).or_else(|| pick_up(false));
+            .map(|c| (c.1.normal, c.1.area_mm2)),
+        Vector3::from(cfg.support_up_hint).try_normalize(1e-9),
+        cfg.support_up_max_angle_deg.to_radians().cos(),
+    );
     // Which candidates are supports, largest first: a large one that bounds the scene or has
     // things standing on it (parallel to up); a small one (a desk seen from close by) only
     // with things standing on it and no support beneath it (else it is a box top).
@@ -174,6 +171,27 @@ pub(crate) fn support_mask(
         })
         .collect();
     (on, planes)
+}
+
+/// "Up" from the candidate planes `(camera-facing unit normal, area mm²)` (see
+/// [`DetectConfig::support_up_hint`]): among the planes within `acos(cos_hint)` of the `hint`,
+/// the one with the largest area seen along the hint (`area · normal·hint`): the floor rather
+/// than a larger wall that qualifies only at a grazing angle. With no hint, or no plane within
+/// it, the largest plane.
+pub(crate) fn up_from_planes(
+    planes: impl Iterator<Item = (Vector3<f64>, f64)> + Clone,
+    hint: Option<Vector3<f64>>,
+    cos_hint: f64,
+) -> Option<Vector3<f64>> {
+    let along_hint = hint.and_then(|h| {
+        planes
+            .clone()
+            .map(|(n, area)| (n, area * n.dot(&h), n.dot(&h)))
+            .filter(|&(_, _, c)| c >= cos_hint)
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(n, _, _)| n)
+    });
+    along_hint.or_else(|| planes.max_by(|a, b| a.1.total_cmp(&b.1)).map(|(n, _)| n))
 }
 
 /// Drops single-face candidates that lie on a support plane (pieces of a table or floor cut off

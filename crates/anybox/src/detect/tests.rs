@@ -1446,3 +1446,55 @@ proptest::proptest! {
         proptest::prop_assert_eq!(fast, expected);
     }
 }
+
+#[test]
+fn up_is_the_floor_not_a_larger_wall_seen_at_a_grazing_angle() {
+    // The two largest candidate planes of seed 2026's generated shelf view 21 (`detect_dev`
+    // with `DETECT_DEBUG=1`): a wall at 77.7° from the image's up, larger in view than the
+    // floor at 3.3°.
+    let wall = Vector3::new(0.4192, -0.2130, -0.8825).normalize();
+    let floor = Vector3::new(-0.0385, -0.9985, 0.0394).normalize();
+    let planes = [(wall, 336_019.0), (floor, 284_972.0)];
+    let (hint, cos80) = (Vector3::new(0.0, -1.0, 0.0), 80f64.to_radians().cos());
+    // Premise: both lie within 80° of the hint, so the larger area alone picked the wall.
+    assert!(wall.dot(&hint) >= cos80 && floor.dot(&hint) >= cos80);
+    let up = |h: Option<Vector3<f64>>| boxes::up_from_planes(planes.iter().copied(), h, cos80);
+    assert_eq!(up(Some(hint)), Some(floor));
+    // No hint, or no plane within it: the largest.
+    assert_eq!(up(None), Some(wall));
+    assert_eq!(up(Some(Vector3::x())), Some(wall));
+
+    // End to end on that view: cartons pushed to the shelf's front, seen straight on, were
+    // taken as supports standing "up" on the wall and lost (1 of 4 found).
+    let sc = SynthConfig {
+        layout: Layout::Shelf,
+        scenes: 24,
+        views: 1,
+        distractors: None,
+        seed: 2026,
+        noise: NoiseModel::Realistic,
+        ..SynthConfig::default()
+    };
+    let v = generate_view(&sc, 21, 0);
+    let found = |cfg: &DetectConfig| {
+        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
+        let counted: Vec<_> = v.boxes.iter().filter(|b| b.visib_fract >= 0.5).collect();
+        let hit = counted
+            .iter()
+            .filter(|b| dets.iter().any(|d| d.mask.iou(&b.mask_visib) > 0.5))
+            .count();
+        (hit, counted.len())
+    };
+    let (hit, n) = found(&DetectConfig::default());
+    assert_eq!(n, 4, "the view's counted cartons");
+    assert_eq!(hit, n, "found {hit} of {n}");
+    // Premise: with no hint "up" is the wall, and the cartons are lost again.
+    let (lost_hit, _) = found(&DetectConfig {
+        support_up_hint: [0.0; 3],
+        ..DetectConfig::default()
+    });
+    assert!(
+        lost_hit <= 1,
+        "found {lost_hit} of {n} with up from the wall"
+    );
+}
