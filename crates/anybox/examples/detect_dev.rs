@@ -19,8 +19,9 @@
 //! whose axes agree and whose union is at most r times their volume (`pipeline::tiled_union`,
 //! e.g. r = 1.2) with the fill, the parts' and the union's best
 //! 3D IoU, and the share of the union's silhouette seen past it (`st`, tolerance 10 and 25 mm;
-//! `depth_filter::see_through_fraction`, as `pipeline::gap_unions` uses it). `RAW=1` with a dump dir also writes the image with invalid depth in red. `REPS=n`
-//! times the detector (with `EST=1`, detection and estimation) as the fastest of n runs.
+//! `depth_filter::see_through_fraction`, as `pipeline::gap_unions` uses it). `RAW=1` with a
+//! dump dir also writes the image with invalid depth in red. `REPS=n` times the detector (with
+//! `EST=1`, detection and estimation) as the fastest of n runs.
 //! `DETECT_DEBUG=1` prints the detector's `log::debug!` diagnostics (planes, regions, face
 //! pairs, selection) to stderr.
 //! A GT box counts when its visible fraction is ≥ 0.5; a detection is a true positive when its

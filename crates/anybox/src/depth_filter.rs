@@ -508,7 +508,8 @@ mod tests {
             Vector3::new(400.0, 300.0, 200.0),
         )
         .unwrap(); // positive sizes: cannot fail
-                   // Pixel centres inside the front face: |u − 320| ≤ 600·200/1400, |v − 240| ≤ 600·150/1400.
+                   // Pixel centres inside the front face: |u − 320| ≤ 600·200/1400 and
+                   // |v − 240| ≤ 600·150/1400.
         let (hu, hv) = (600.0 * 200.0 / 1400.0, 600.0 * 150.0 / 1400.0);
         let rect = [
             (320.0f64 - hu).ceil() as u32,

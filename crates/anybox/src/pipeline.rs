@@ -5,9 +5,10 @@
 //! from the point extents along the observation's main face frame, or with
 //! `scale.measured_start` off from the template) → hidden dimensions from context
 //! ([`crate::context`]) with one last pose estimate when they changed the size → canonical axes
-//! (`anybox_geom::symmetry::canonicalize`) with the observed-axis flags carried along. An estimate scoring below
-//! `observation.retry_below_score` is redone once from the mask cut down to its box faces
-//! ([`crate::observation::box_faces_mask`]); the better-scoring of the two is kept.
+//! (`anybox_geom::symmetry::canonicalize`) with the observed-axis flags carried along. An
+//! estimate scoring below `observation.retry_below_score` is redone once from the mask cut down
+//! to its box faces ([`crate::observation::box_faces_mask`]); the better-scoring of the two is
+//! kept.
 //!
 //! [`estimate_frame`]: [`estimate_box`]'s stages for every mask in parallel (rayon), then the
 //! cross-instance context pass (boxes in one layer share their height,

@@ -91,11 +91,9 @@ pub(crate) fn support_mask(
     for (reg, strong, standing) in ransac {
         cands.push((None, reg, strong, standing));
     }
-    // "Up": the normal of the largest plane that bounds the scene (the floor). Things stand on
-    // planes parallel to it (tables, shelf boards); a vertical face with floor in front of it
-    // does not count.
-    // A plane facing away from the up hint (a wall behind a table, seen from above, faces
-    // down the image) is not the floor; without an allowed candidate, any is.
+    // "Up": the normal of the plane that bounds the scene (the floor), picked by
+    // `up_from_planes`. Things stand on planes parallel to it (tables, shelf boards); a
+    // vertical face with floor in front of it does not count.
     let up = up_from_planes(
         cands
             .iter()
@@ -184,12 +182,12 @@ pub(crate) fn up_from_planes(
     cos_hint: f64,
 ) -> Option<Vector3<f64>> {
     let along_hint = hint.and_then(|h| {
+        let seen_along = |&(n, area): &(Vector3<f64>, f64)| area * n.dot(&h);
         planes
             .clone()
-            .map(|(n, area)| (n, area * n.dot(&h), n.dot(&h)))
-            .filter(|&(_, _, c)| c >= cos_hint)
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(n, _, _)| n)
+            .filter(|(n, _)| n.dot(&h) >= cos_hint)
+            .max_by(|a, b| seen_along(a).total_cmp(&seen_along(b)))
+            .map(|(n, _)| n)
     });
     along_hint.or_else(|| planes.max_by(|a, b| a.1.total_cmp(&b.1)).map(|(n, _)| n))
 }
