@@ -338,6 +338,30 @@ fn dump(path: &Path, rgb: &image::RgbImage, dets: &[Detection], gts: &[(Mask, f6
             }
         }
     }
+    // Detection outlines in saturated colours, drawn after all tints.
+    const OUTLINE: [[u8; 3]; 6] = [
+        [255, 0, 0],
+        [0, 0, 255],
+        [255, 255, 0],
+        [0, 255, 255],
+        [255, 0, 255],
+        [0, 255, 0],
+    ];
+    for (k, d) in dets.iter().enumerate() {
+        let m = &d.mask;
+        for vv in 1..m.height - 1 {
+            for u in 1..m.width - 1 {
+                if m.get(u, vv)
+                    && !(m.get(u - 1, vv)
+                        && m.get(u + 1, vv)
+                        && m.get(u, vv - 1)
+                        && m.get(u, vv + 1))
+                {
+                    img.put_pixel(u, vv, image::Rgb(OUTLINE[k % OUTLINE.len()]));
+                }
+            }
+        }
+    }
     // GT outlines in white.
     for (m, v) in gts {
         let c = if *v >= 0.5 { 255 } else { 128 };
