@@ -578,6 +578,125 @@ fn union_pairs(
     out
 }
 
+/// An alternative reading of one estimate from a detected mask: `k` copies of another
+/// estimate of the frame laid end to end ([`repeat_splits`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RepeatSplit {
+    /// Index of the estimate read as several boxes, in the slice given to [`repeat_splits`].
+    pub source: usize,
+    /// Index of the estimate whose size it repeats.
+    pub reference: usize,
+    /// The `k` boxes, camera frame, mm (in the source's axes), in order along the split axis.
+    pub parts: Vec<OrientedBox>,
+    /// The lower of the two estimates' scores times
+    /// [`DetectConfig::repeat_split_score_factor`](crate::detect::DetectConfig::repeat_split_score_factor).
+    pub score: f64,
+}
+
+/// Alternative readings for a frame's estimates from detected masks (`boxes`: pose and score
+/// of each): an estimate whose axes are parallel to another's (within
+/// `tiled_union_max_angle_deg`) and whose extents are that other's, except one that is `k`
+/// times it (2 ≤ k ≤ `repeat_split_max_parts`; every ratio within `repeat_split_tol`), is
+/// also read as `k` boxes cut along that axis. The two must barely overlap
+/// (`tiled_union_max_shared`), and the repeated one must score at least
+/// `repeat_split_min_reference_ratio` times the split one. Per estimate, the highest-scoring
+/// such other one is used. Empty when `repeat_split_score_factor` is 0.
+///
+/// Why: cartons on a pallet are mostly of one size, and flush cartons of one colour whose
+/// joints the detector cannot see come out as one mask; the estimate is then two or three
+/// cartons long, next to single cartons of the same size found elsewhere in the frame. The
+/// merged estimate stays; the copies are returned as alternatives, scored below it.
+pub fn repeat_splits(
+    boxes: &[(OrientedBox, f64)],
+    cfg: &crate::detect::DetectConfig,
+) -> Vec<RepeatSplit> {
+    let mut out = Vec::new();
+    if cfg.repeat_split_score_factor <= 0.0 || cfg.repeat_split_max_parts < 2 {
+        return out;
+    }
+    let cos_max = cfg.tiled_union_max_angle_deg.to_radians().cos();
+    let tol = cfg.repeat_split_tol.max(0.0);
+    for (s, (ps, ss)) in boxes.iter().enumerate() {
+        let mut best: Option<(usize, usize, u32, f64)> = None;
+        for (r, (pr, sr)) in boxes.iter().enumerate() {
+            if r == s
+                || *sr < cfg.repeat_split_min_reference_ratio * ss
+                || best.is_some_and(|(_, _, _, b)| *sr <= b)
+            {
+                continue;
+            }
+            let Some(k_axis) = repeat_of(ps, pr, cos_max, tol, cfg.repeat_split_max_parts) else {
+                continue;
+            };
+            let shared = anybox_geom::iou::intersection_volume_mm3(ps, pr);
+            if shared > cfg.tiled_union_max_shared * ps.volume_mm3().min(pr.volume_mm3()) {
+                continue;
+            }
+            best = Some((r, k_axis.0, k_axis.1, *sr));
+        }
+        let Some((r, a, k, sr)) = best else {
+            continue;
+        };
+        let step = ps.size_mm[a] / f64::from(k);
+        let mut size = ps.size_mm;
+        size[a] = step;
+        let parts = (0..k)
+            .map(|i| {
+                let off = (f64::from(i) + 0.5) * step - ps.size_mm[a] / 2.0;
+                OrientedBox {
+                    rotation: ps.rotation,
+                    center_mm: ps.center_mm + ps.axis(a) * off,
+                    size_mm: size,
+                }
+            })
+            .collect();
+        out.push(RepeatSplit {
+            source: s,
+            reference: r,
+            parts,
+            score: ss.min(sr) * cfg.repeat_split_score_factor,
+        });
+    }
+    out
+}
+
+/// `(axis of a, k)` when `a` is `k` copies of `b` laid end to end along that axis: each of
+/// `a`'s axes parallel to one of `b`'s (|cos| ≥ `cos_max`), the extents' ratios 1, 1 and `k`
+/// (2 ≤ k ≤ `max_k`) within `tol` × the ratio.
+fn repeat_of(
+    a: &OrientedBox,
+    b: &OrientedBox,
+    cos_max: f64,
+    tol: f64,
+    max_k: u32,
+) -> Option<(usize, u32)> {
+    let mut ratio = [0.0f64; 3];
+    let mut used = [false; 3];
+    for (i, q) in ratio.iter_mut().enumerate() {
+        let ai = a.axis(i);
+        let (j, c) = (0..3)
+            .map(|j| (j, ai.dot(&b.axis(j)).abs()))
+            .fold((0, -1.0), |m, x| if x.1 > m.1 { x } else { m });
+        if c < cos_max || used[j] || b.size_mm[j] <= 0.0 {
+            return None;
+        }
+        used[j] = true;
+        *q = a.size_mm[i] / b.size_mm[j];
+    }
+    let mut found = None;
+    for (i, &q) in ratio.iter().enumerate() {
+        if (q - 1.0).abs() <= tol {
+            continue;
+        }
+        let k = q.round();
+        if found.is_some() || k < 2.0 || k > f64::from(max_k) || (q - k).abs() > tol * k {
+            return None;
+        }
+        found = Some((i, k as u32));
+    }
+    found
+}
+
 /// Pixels sampled by the see-through test of [`gap_unions`]: about 1000 measure a share near
 /// the 10 % threshold to ±1 % (binomial standard error), at a few per cent of a large union's
 /// pixels.
@@ -714,6 +833,87 @@ mod tests {
             ..cfg
         };
         assert!(tiled_unions(&boxes, &off).is_empty());
+    }
+
+    /// Three cartons of 300 × 250 × 180 mm in a row along their 250 mm side (tilted), the
+    /// box they fill together, in axes turned 90° about z (its x and y swapped), and one more
+    /// such carton beside the row, turned `turn_deg` about z, 4 % longer in x.
+    fn carton_row(turn_deg: f64) -> ([OrientedBox; 3], OrientedBox, OrientedBox) {
+        let rot = Rotation3::from_euler_angles(0.35, -0.2, 0.6);
+        let c = Vector3::new(100.0, -50.0, 1800.0);
+        let size = Vector3::new(300.0, 250.0, 180.0);
+        let carton = |i: f64| OrientedBox {
+            rotation: rot,
+            center_mm: c + rot * Vector3::new(0.0, i * 250.0, 0.0),
+            size_mm: size,
+        };
+        let row = [carton(-1.0), carton(0.0), carton(1.0)];
+        let quarter = Rotation3::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2);
+        let merged = OrientedBox {
+            rotation: rot * quarter,
+            center_mm: c,
+            size_mm: Vector3::new(750.0, 300.0, 180.0),
+        };
+        let turn = Rotation3::from_axis_angle(&Vector3::z_axis(), turn_deg.to_radians());
+        let other = OrientedBox {
+            rotation: rot * turn,
+            center_mm: c + rot * Vector3::new(400.0, 0.0, 0.0),
+            size_mm: Vector3::new(312.0, 250.0, 180.0),
+        };
+        (row, merged, other)
+    }
+
+    #[test]
+    fn repeat_splits_cut_a_merged_row_into_copies_of_another_carton() {
+        use anybox_geom::iou::{iou, IouMethod};
+        let cfg = crate::detect::DetectConfig::default();
+        let (row, merged, other) = carton_row(3.0);
+        let sp = repeat_splits(&[(merged, 0.5), (other, 0.7)], &cfg);
+        assert_eq!(sp.len(), 1, "only the merged row is a repeat");
+        assert_eq!((sp[0].source, sp[0].reference), (0, 1));
+        assert_eq!(sp[0].parts.len(), 3);
+        assert!((sp[0].score - 0.5 * cfg.repeat_split_score_factor).abs() < 1e-12);
+        // Scored far above the carton it would repeat (which may be a half detected on its
+        // own), the row is the better reading: not cut.
+        assert!(repeat_splits(&[(merged, 0.9), (other, 0.3)], &cfg).is_empty());
+        assert_eq!(repeat_splits(&[(merged, 0.9), (other, 0.5)], &cfg).len(), 1);
+        // Each true carton is one of the parts.
+        for carton in &row {
+            let best = sp[0]
+                .parts
+                .iter()
+                .map(|p| iou(p, carton, IouMethod::Exact))
+                .fold(0.0, f64::max);
+            assert!(best > 0.999, "best IoU {best}");
+        }
+    }
+
+    #[test]
+    fn repeat_splits_need_parallel_axes_a_whole_multiple_and_no_overlap() {
+        let cfg = crate::detect::DetectConfig::default();
+        // Turned 30°: not the same layout.
+        let (row, merged, turned) = carton_row(30.0);
+        assert!(repeat_splits(&[(merged, 0.5), (turned, 0.7)], &cfg).is_empty());
+        // 2.5 cartons long: no whole number of copies.
+        let (_, _, other) = carton_row(0.0);
+        let mut long = merged;
+        long.size_mm.x = 625.0;
+        assert!(repeat_splits(&[(long, 0.5), (other, 0.7)], &cfg).is_empty());
+        // Two cartons of one size: neither repeats the other.
+        assert!(repeat_splits(&[(row[0], 0.5), (other, 0.7)], &cfg).is_empty());
+        // A carton inside the row is not another carton.
+        assert!(repeat_splits(&[(merged, 0.5), (row[1], 0.7)], &cfg).is_empty());
+        // More copies than allowed.
+        let few = crate::detect::DetectConfig {
+            repeat_split_max_parts: 2,
+            ..cfg.clone()
+        };
+        assert!(repeat_splits(&[(merged, 0.5), (other, 0.7)], &few).is_empty());
+        let off = crate::detect::DetectConfig {
+            repeat_split_score_factor: 0.0,
+            ..cfg
+        };
+        assert!(repeat_splits(&[(merged, 0.5), (other, 0.7)], &off).is_empty());
     }
 
     /// A carton (400 × 300 × 200 mm, turned to show two faces) seen in two pieces, its middle

@@ -142,9 +142,11 @@ pub fn run_frame(
 /// records carry scene and image id 0): detection, the
 /// estimator on every detection ([`Config::for_detected_masks`]), then the unions of split
 /// cartons ([`crate::pipeline::tiled_unions`], and [`crate::pipeline::gap_unions`] across a
-/// hidden gap). Alternative readings carry
-/// `"alternative": true` in `extra`: the detector's ([`crate::detect::Detection::alternative`])
-/// and the unions, which also carry `"parts"` (the two detections' mask names); drop them
+/// hidden gap), and the copies of a carton that a merged estimate repeats
+/// ([`crate::pipeline::repeat_splits`]). Alternative readings carry `"alternative": true` in
+/// `extra`: the detector's ([`crate::detect::Detection::alternative`]), the unions, which
+/// also carry `"parts"` (the two detections' mask names), and the copies, which carry
+/// `"split_of"` and `"like"` (the split and the repeated detection's mask names); drop them
 /// where one reading per box is wanted.
 pub fn run_detected_frame(
     rgb: Option<&anybox_io::RgbImage>,
@@ -180,6 +182,21 @@ pub fn run_detected_frame(
         rec.extra
             .insert("parts".into(), serde_json::json!([name(a), name(b)]));
         out.estimates.push(rec);
+    }
+    for sp in crate::pipeline::repeat_splits(&scored, &config.detect) {
+        let (a, b) = (idx[sp.source], idx[sp.reference]);
+        let name = |i: usize| out.estimates[i].extra.get("mask").cloned();
+        let (split_of, like) = (name(a), name(b));
+        for part in &sp.parts {
+            let mut rec =
+                EstimateRecord::from_pose(0, 0, part, sp.score, out.estimates[a].time, None);
+            rec.extra
+                .insert("alternative".into(), serde_json::json!(true));
+            rec.extra
+                .insert("split_of".into(), serde_json::json!(split_of));
+            rec.extra.insert("like".into(), serde_json::json!(like));
+            out.estimates.push(rec);
+        }
     }
     Ok(out)
 }
@@ -367,10 +384,11 @@ mod tests {
             improved |= best(&u) > 0.5 && parts_best <= 0.5;
         }
         assert!(improved, "the union finds the carton its halves miss");
-        // Switched off (unions and the detector's alternatives): the same primary records,
+        // Switched off (unions, repeat splits and the detector's alternatives): the same primary records,
         // estimated alike (alternatives share no extents with their neighbours).
         let mut off = config.clone();
         off.detect.tiled_union_score_factor = 0.0;
+        off.detect.repeat_split_score_factor = 0.0;
         off.detect.alternatives_max = 0;
         let out0 = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &off).unwrap();
         assert!(out0
@@ -389,7 +407,7 @@ mod tests {
         let detector_alts: Vec<&EstimateRecord> = out
             .estimates
             .iter()
-            .filter(|r| !r.extra.contains_key("parts"))
+            .filter(|r| !r.extra.contains_key("parts") && !r.extra.contains_key("split_of"))
             .filter(|r| r.extra.get("alternative").is_some())
             .collect();
         assert!(!detector_alts.is_empty(), "no detector alternative here");
@@ -397,5 +415,59 @@ mod tests {
             let name = r.extra["mask"].as_str().expect("a mask name");
             assert!(name.starts_with("alternative detection "));
         }
+    }
+    /// A generated pallet (seed 2026, scene 11 of 24, as `detect_dev SEED=2026 ONLY=pallet
+    /// VIEW=11` draws it) where two flush cartons of one size come out as one detection: the
+    /// run also returns the copies of another carton that the merged box repeats, flagged and
+    /// scored below both, and one copy is a carton the merged box misses.
+    #[test]
+    fn detected_frame_cuts_a_merged_pair_into_copies_of_a_carton() {
+        use anybox_synth::{generate_view, Layout, NoiseModel, SynthConfig};
+        let sc = SynthConfig {
+            layout: Layout::Pallet,
+            scenes: 24,
+            views: 1,
+            seed: 2026,
+            noise: NoiseModel::Realistic,
+            ..SynthConfig::default()
+        };
+        let v = generate_view(&sc, 11, 0);
+        let out = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &Config::default())
+            .expect("a valid frame");
+        let best = |b: &anybox_geom::OrientedBox| {
+            v.boxes
+                .iter()
+                .map(|g| iou(b, &g.pose, IouMethod::Exact))
+                .fold(0.0, f64::max)
+        };
+        let by_name = |n: &serde_json::Value| {
+            out.estimates
+                .iter()
+                .find(|r| r.extra.get("mask") == Some(n))
+                .expect("split_of and like name primary records")
+        };
+        let mut found = false;
+        for r in out
+            .estimates
+            .iter()
+            .filter(|r| r.extra.contains_key("split_of"))
+        {
+            assert_eq!(r.extra.get("alternative"), Some(&serde_json::json!(true)));
+            let (src, like) = (by_name(&r.extra["split_of"]), by_name(&r.extra["like"]));
+            assert!(r.score < src.score && r.score < like.score);
+            let part = r.pose().unwrap(); // built from a valid pose
+            let whole = src.pose().unwrap(); // estimator output: valid
+                                             // Each copy lies inside the box it was cut from.
+            assert!(intersection_volume_mm3(&whole, &part) > 0.99 * part.volume_mm3());
+            found |= best(&part) > 0.9 && best(&whole) <= 0.5;
+        }
+        assert!(found, "no copy finds a carton that its merged box misses");
+        let mut off = Config::default();
+        off.detect.repeat_split_score_factor = 0.0;
+        let out0 = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &off).unwrap();
+        assert!(out0
+            .estimates
+            .iter()
+            .all(|r| !r.extra.contains_key("split_of")));
     }
 }
