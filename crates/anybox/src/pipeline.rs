@@ -578,15 +578,28 @@ fn union_pairs(
     out
 }
 
-/// An alternative reading of one estimate from a detected mask: `k` copies of another
-/// estimate of the frame laid end to end ([`repeat_splits`]).
+/// How a [`RepeatReading`] reads its source estimate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RepeatKind {
+    /// As `k` ≥ 2 copies of the reference laid end to end (flush cartons merged).
+    Split,
+    /// As one box, the source extended away from the camera to the reference's extent along
+    /// its one short axis (a carton of that size seen partly).
+    Extend,
+}
+
+/// An alternative reading of one estimate from a detected mask, by the size of another
+/// estimate of the frame ([`repeat_readings`]).
 #[derive(Debug, Clone, PartialEq)]
-pub struct RepeatSplit {
-    /// Index of the estimate read as several boxes, in the slice given to [`repeat_splits`].
+pub struct RepeatReading {
+    /// Split into copies, or extended.
+    pub kind: RepeatKind,
+    /// Index of the estimate read anew, in the slice given to [`repeat_readings`].
     pub source: usize,
     /// Index of the estimate whose size it repeats.
     pub reference: usize,
-    /// The `k` boxes, camera frame, mm (in the source's axes), in order along the split axis.
+    /// The boxes of the new reading (the `k` copies in order along the split axis, or the one
+    /// extended box), camera frame, mm, in the source's axes.
     pub parts: Vec<OrientedBox>,
     /// The lower of the two estimates' scores times
     /// [`DetectConfig::repeat_split_score_factor`](crate::detect::DetectConfig::repeat_split_score_factor).
@@ -594,63 +607,93 @@ pub struct RepeatSplit {
 }
 
 /// Alternative readings for a frame's estimates from detected masks (`boxes`: pose and score
-/// of each): an estimate whose axes are parallel to another's (within
-/// `tiled_union_max_angle_deg`) and whose extents are that other's, except one that is `k`
-/// times it (2 ≤ k ≤ `repeat_split_max_parts`; every ratio within `repeat_split_tol`), is
-/// also read as `k` boxes cut along that axis. The two must barely overlap
-/// (`tiled_union_max_shared`), and the repeated one must score at least
-/// `repeat_split_min_reference_ratio` times the split one. Per estimate, the highest-scoring
-/// such other one is used. Empty when `repeat_split_score_factor` is 0.
+/// of each), by the sizes of the others. When an estimate's axes are parallel to another's
+/// (within `tiled_union_max_angle_deg`), two of its extents equal that other's and the third
+/// differs (every ratio within `repeat_split_tol`), it is also read as
+/// - **split** ([`RepeatKind::Split`]): the third extent is `k` times the other's
+///   (2 ≤ k ≤ `repeat_split_max_parts`): `k` boxes cut along that axis;
+/// - **extended** ([`RepeatKind::Extend`]): the third extent is shorter, at least
+///   `repeat_extend_min_ratio` of the other's: the box grown away from the camera to the
+///   other's extent, the face nearer the camera kept.
 ///
-/// Why: cartons on a pallet are mostly of one size, and flush cartons of one colour whose
-/// joints the detector cannot see come out as one mask; the estimate is then two or three
-/// cartons long, next to single cartons of the same size found elsewhere in the frame. The
-/// merged estimate stays; the copies are returned as alternatives, scored below it.
-pub fn repeat_splits(
+/// The two must barely overlap (`tiled_union_max_shared`), and the repeated one must score
+/// at least `repeat_split_min_reference_ratio` times the source to split it, and at least as
+/// much as the source to extend it. Per estimate, the
+/// highest-scoring such other one is used. Empty when `repeat_split_score_factor` is 0.
+///
+/// Why: cartons on a pallet or a shelf are often of one size. Flush cartons of one colour whose
+/// joints the detector cannot see come out as one mask, two or three cartons long; a carton
+/// seen only in part (its depth hidden, or cut by the detector) comes out short. Single
+/// cartons of that size found elsewhere in the frame tell both apart. The source estimate
+/// stays; the new readings are returned as alternatives, scored below it.
+pub fn repeat_readings(
     boxes: &[(OrientedBox, f64)],
     cfg: &crate::detect::DetectConfig,
-) -> Vec<RepeatSplit> {
+) -> Vec<RepeatReading> {
     let mut out = Vec::new();
-    if cfg.repeat_split_score_factor <= 0.0 || cfg.repeat_split_max_parts < 2 {
+    if cfg.repeat_split_score_factor <= 0.0 {
         return out;
     }
     let cos_max = cfg.tiled_union_max_angle_deg.to_radians().cos();
-    let tol = cfg.repeat_split_tol.max(0.0);
     for (s, (ps, ss)) in boxes.iter().enumerate() {
-        let mut best: Option<(usize, usize, u32, f64)> = None;
+        let mut best: Option<(usize, Repeat, f64)> = None;
         for (r, (pr, sr)) in boxes.iter().enumerate() {
             if r == s
                 || *sr < cfg.repeat_split_min_reference_ratio * ss
-                || best.is_some_and(|(_, _, _, b)| *sr <= b)
+                || best.is_some_and(|(_, _, b)| *sr <= b)
             {
                 continue;
             }
-            let Some(k_axis) = repeat_of(ps, pr, cos_max, tol, cfg.repeat_split_max_parts) else {
+            let Some(rep) = repeat_of(ps, pr, cos_max, cfg) else {
                 continue;
             };
+            // Growing a box takes a reference trusted more than the box itself (else a
+            // carton would grow to a merged row scored below it).
+            if matches!(rep, Repeat::Extend { .. }) && sr < ss {
+                continue;
+            }
             let shared = anybox_geom::iou::intersection_volume_mm3(ps, pr);
             if shared > cfg.tiled_union_max_shared * ps.volume_mm3().min(pr.volume_mm3()) {
                 continue;
             }
-            best = Some((r, k_axis.0, k_axis.1, *sr));
+            best = Some((r, rep, *sr));
         }
-        let Some((r, a, k, sr)) = best else {
+        let Some((r, rep, sr)) = best else {
             continue;
         };
-        let step = ps.size_mm[a] / f64::from(k);
-        let mut size = ps.size_mm;
-        size[a] = step;
-        let parts = (0..k)
-            .map(|i| {
-                let off = (f64::from(i) + 0.5) * step - ps.size_mm[a] / 2.0;
-                OrientedBox {
+        let (kind, parts) = match rep {
+            Repeat::Copies { axis, k } => {
+                let step = ps.size_mm[axis] / f64::from(k);
+                let mut size = ps.size_mm;
+                size[axis] = step;
+                let parts = (0..k)
+                    .map(|i| {
+                        let off = (f64::from(i) + 0.5) * step - ps.size_mm[axis] / 2.0;
+                        OrientedBox {
+                            rotation: ps.rotation,
+                            center_mm: ps.center_mm + ps.axis(axis) * off,
+                            size_mm: size,
+                        }
+                    })
+                    .collect();
+                (RepeatKind::Split, parts)
+            }
+            Repeat::Extend { axis, to_mm } => {
+                let n = ps.axis(axis);
+                // Away from the camera (at the origin): the near face stays.
+                let away = if n.dot(&ps.center_mm) >= 0.0 { n } else { -n };
+                let mut size = ps.size_mm;
+                size[axis] = to_mm;
+                let grown = OrientedBox {
                     rotation: ps.rotation,
-                    center_mm: ps.center_mm + ps.axis(a) * off,
+                    center_mm: ps.center_mm + away * ((to_mm - ps.size_mm[axis]) / 2.0),
                     size_mm: size,
-                }
-            })
-            .collect();
-        out.push(RepeatSplit {
+                };
+                (RepeatKind::Extend, vec![grown])
+            }
+        };
+        out.push(RepeatReading {
+            kind,
             source: s,
             reference: r,
             parts,
@@ -660,19 +703,30 @@ pub fn repeat_splits(
     out
 }
 
-/// `(axis of a, k)` when `a` is `k` copies of `b` laid end to end along that axis: each of
-/// `a`'s axes parallel to one of `b`'s (|cos| ≥ `cos_max`), the extents' ratios 1, 1 and `k`
-/// (2 ≤ k ≤ `max_k`) within `tol` × the ratio.
+/// How one box repeats another's size ([`repeat_of`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Repeat {
+    /// `k` copies along `axis` (of the first box).
+    Copies { axis: usize, k: u32 },
+    /// Shorter along `axis`; the other's extent there is `to_mm`.
+    Extend { axis: usize, to_mm: f64 },
+}
+
+/// Whether `a` repeats `b`'s size: each of `a`'s axes parallel to one of `b`'s (|cos| ≥
+/// `cos_max`), two extent ratios within `repeat_split_tol` of 1 and the third either within
+/// that tolerance of a whole `k` in 2..=`repeat_split_max_parts` or below 1 − tolerance and at
+/// least `repeat_extend_min_ratio` (when that is above 0).
 fn repeat_of(
     a: &OrientedBox,
     b: &OrientedBox,
     cos_max: f64,
-    tol: f64,
-    max_k: u32,
-) -> Option<(usize, u32)> {
+    cfg: &crate::detect::DetectConfig,
+) -> Option<Repeat> {
+    let tol = cfg.repeat_split_tol.max(0.0);
     let mut ratio = [0.0f64; 3];
+    let mut other = [0usize; 3];
     let mut used = [false; 3];
-    for (i, q) in ratio.iter_mut().enumerate() {
+    for i in 0..3 {
         let ai = a.axis(i);
         let (j, c) = (0..3)
             .map(|j| (j, ai.dot(&b.axis(j)).abs()))
@@ -681,20 +735,23 @@ fn repeat_of(
             return None;
         }
         used[j] = true;
-        *q = a.size_mm[i] / b.size_mm[j];
+        other[i] = j;
+        ratio[i] = a.size_mm[i] / b.size_mm[j];
     }
-    let mut found = None;
-    for (i, &q) in ratio.iter().enumerate() {
-        if (q - 1.0).abs() <= tol {
-            continue;
-        }
-        let k = q.round();
-        if found.is_some() || k < 2.0 || k > f64::from(max_k) || (q - k).abs() > tol * k {
-            return None;
-        }
-        found = Some((i, k as u32));
+    let mut odd = (0..3).filter(|&i| (ratio[i] - 1.0).abs() > tol);
+    let (axis, None) = (odd.next()?, odd.next()) else {
+        return None;
+    };
+    let q = ratio[axis];
+    let k = q.round();
+    if k >= 2.0 && k <= f64::from(cfg.repeat_split_max_parts) && (q - k).abs() <= tol * k {
+        return Some(Repeat::Copies { axis, k: k as u32 });
     }
-    found
+    let min = cfg.repeat_extend_min_ratio;
+    (min > 0.0 && q >= min && q < 1.0 - tol).then(|| Repeat::Extend {
+        axis,
+        to_mm: b.size_mm[other[axis]],
+    })
 }
 
 /// Pixels sampled by the see-through test of [`gap_unions`]: about 1000 measure a share near
@@ -864,19 +921,26 @@ mod tests {
     }
 
     #[test]
-    fn repeat_splits_cut_a_merged_row_into_copies_of_another_carton() {
+    fn repeat_readings_cut_a_merged_row_into_copies_of_another_carton() {
         use anybox_geom::iou::{iou, IouMethod};
         let cfg = crate::detect::DetectConfig::default();
         let (row, merged, other) = carton_row(3.0);
-        let sp = repeat_splits(&[(merged, 0.5), (other, 0.7)], &cfg);
+        let sp = repeat_readings(&[(merged, 0.5), (other, 0.7)], &cfg);
         assert_eq!(sp.len(), 1, "only the merged row is a repeat");
         assert_eq!((sp[0].source, sp[0].reference), (0, 1));
+        assert_eq!(sp[0].kind, RepeatKind::Split);
         assert_eq!(sp[0].parts.len(), 3);
         assert!((sp[0].score - 0.5 * cfg.repeat_split_score_factor).abs() < 1e-12);
         // Scored far above the carton it would repeat (which may be a half detected on its
         // own), the row is the better reading: not cut.
-        assert!(repeat_splits(&[(merged, 0.9), (other, 0.3)], &cfg).is_empty());
-        assert_eq!(repeat_splits(&[(merged, 0.9), (other, 0.5)], &cfg).len(), 1);
+        let splits = |boxes: &[(OrientedBox, f64)]| {
+            repeat_readings(boxes, &cfg)
+                .iter()
+                .filter(|r| r.kind == RepeatKind::Split)
+                .count()
+        };
+        assert_eq!(splits(&[(merged, 0.9), (other, 0.3)]), 0);
+        assert_eq!(splits(&[(merged, 0.9), (other, 0.5)]), 1);
         // Each true carton is one of the parts.
         for carton in &row {
             let best = sp[0]
@@ -889,31 +953,77 @@ mod tests {
     }
 
     #[test]
-    fn repeat_splits_need_parallel_axes_a_whole_multiple_and_no_overlap() {
+    fn repeat_readings_need_parallel_axes_a_whole_multiple_and_no_overlap() {
         let cfg = crate::detect::DetectConfig::default();
         // Turned 30°: not the same layout.
         let (row, merged, turned) = carton_row(30.0);
-        assert!(repeat_splits(&[(merged, 0.5), (turned, 0.7)], &cfg).is_empty());
+        assert!(repeat_readings(&[(merged, 0.5), (turned, 0.7)], &cfg).is_empty());
         // 2.5 cartons long: no whole number of copies.
         let (_, _, other) = carton_row(0.0);
         let mut long = merged;
         long.size_mm.x = 625.0;
-        assert!(repeat_splits(&[(long, 0.5), (other, 0.7)], &cfg).is_empty());
+        assert!(repeat_readings(&[(long, 0.5), (other, 0.7)], &cfg).is_empty());
         // Two cartons of one size: neither repeats the other.
-        assert!(repeat_splits(&[(row[0], 0.5), (other, 0.7)], &cfg).is_empty());
+        assert!(repeat_readings(&[(row[0], 0.5), (other, 0.7)], &cfg).is_empty());
         // A carton inside the row is not another carton.
-        assert!(repeat_splits(&[(merged, 0.5), (row[1], 0.7)], &cfg).is_empty());
+        assert!(repeat_readings(&[(merged, 0.5), (row[1], 0.7)], &cfg).is_empty());
         // More copies than allowed.
         let few = crate::detect::DetectConfig {
             repeat_split_max_parts: 2,
             ..cfg.clone()
         };
-        assert!(repeat_splits(&[(merged, 0.5), (other, 0.7)], &few).is_empty());
+        assert!(repeat_readings(&[(merged, 0.5), (other, 0.7)], &few).is_empty());
         let off = crate::detect::DetectConfig {
             repeat_split_score_factor: 0.0,
             ..cfg
         };
-        assert!(repeat_splits(&[(merged, 0.5), (other, 0.7)], &off).is_empty());
+        assert!(repeat_readings(&[(merged, 0.5), (other, 0.7)], &off).is_empty());
+    }
+
+    #[test]
+    fn repeat_readings_extend_a_short_box_away_from_the_camera_to_another_cartons_size() {
+        use anybox_geom::iou::{iou, IouMethod};
+        let cfg = crate::detect::DetectConfig::default();
+        let (row, _, other) = carton_row(2.0);
+        let carton = row[0];
+        // The axis most along the line of sight, pointing away from the camera.
+        let a = (0..3)
+            .max_by(|&i, &j| {
+                let f = |k: usize| carton.axis(k).dot(&carton.center_mm.normalize()).abs();
+                f(i).total_cmp(&f(j))
+            })
+            .expect("three axes");
+        let n = carton.axis(a);
+        let away = if n.dot(&carton.center_mm) >= 0.0 {
+            n
+        } else {
+            -n
+        };
+        // Only its front `seen_mm` measured: the near face kept, the box short behind it.
+        let short = |seen_mm: f64| {
+            let mut b = carton;
+            b.size_mm[a] = seen_mm;
+            b.center_mm -= away * ((carton.size_mm[a] - seen_mm) / 2.0);
+            b
+        };
+        // (The carton scores well above its short piece, which must not cut it in three.)
+        let rd = repeat_readings(&[(short(60.0), 0.4), (other, 0.9)], &cfg);
+        assert_eq!(rd.len(), 1);
+        assert_eq!(rd[0].kind, RepeatKind::Extend);
+        assert_eq!(rd[0].parts.len(), 1);
+        let i = iou(&rd[0].parts[0], &carton, IouMethod::Exact);
+        assert!(i > 0.999, "IoU with the carton {i}");
+        // Too little of it seen, or extensions off: no reading.
+        assert!(repeat_readings(&[(short(20.0), 0.4), (other, 0.9)], &cfg).is_empty());
+        let off = crate::detect::DetectConfig {
+            repeat_extend_min_ratio: 0.0,
+            ..cfg
+        };
+        assert!(repeat_readings(&[(short(60.0), 0.4), (other, 0.9)], &off).is_empty());
+        // A reference scored below the short box does not grow it.
+        assert!(repeat_readings(&[(short(60.0), 0.8), (other, 0.7)], &cfg)
+            .iter()
+            .all(|r| r.kind != RepeatKind::Extend));
     }
 
     /// A carton (400 × 300 × 200 mm, turned to show two faces) seen in two pieces, its middle

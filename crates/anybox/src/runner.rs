@@ -142,12 +142,13 @@ pub fn run_frame(
 /// records carry scene and image id 0): detection, the
 /// estimator on every detection ([`Config::for_detected_masks`]), then the unions of split
 /// cartons ([`crate::pipeline::tiled_unions`], and [`crate::pipeline::gap_unions`] across a
-/// hidden gap), and the copies of a carton that a merged estimate repeats
-/// ([`crate::pipeline::repeat_splits`]). Alternative readings carry `"alternative": true` in
+/// hidden gap), and the readings of an estimate by another's size
+/// ([`crate::pipeline::repeat_readings`]: the copies of a carton that a merged estimate
+/// repeats, a short estimate extended). Alternative readings carry `"alternative": true` in
 /// `extra`: the detector's ([`crate::detect::Detection::alternative`]), the unions, which
-/// also carry `"parts"` (the two detections' mask names), and the copies, which carry
-/// `"split_of"` and `"like"` (the split and the repeated detection's mask names); drop them
-/// where one reading per box is wanted.
+/// also carry `"parts"` (the two detections' mask names), and the repeat readings, which carry
+/// `"split_of"` or `"extended_from"` and `"like"` (the source and the repeated detection's
+/// mask names); drop them where one reading per box is wanted.
 pub fn run_detected_frame(
     rgb: Option<&anybox_io::RgbImage>,
     depth: &DepthMap,
@@ -183,17 +184,20 @@ pub fn run_detected_frame(
             .insert("parts".into(), serde_json::json!([name(a), name(b)]));
         out.estimates.push(rec);
     }
-    for sp in crate::pipeline::repeat_splits(&scored, &config.detect) {
-        let (a, b) = (idx[sp.source], idx[sp.reference]);
+    for rd in crate::pipeline::repeat_readings(&scored, &config.detect) {
+        let (a, b) = (idx[rd.source], idx[rd.reference]);
         let name = |i: usize| out.estimates[i].extra.get("mask").cloned();
-        let (split_of, like) = (name(a), name(b));
-        for part in &sp.parts {
+        let (source, like) = (name(a), name(b));
+        let key = match rd.kind {
+            crate::pipeline::RepeatKind::Split => "split_of",
+            crate::pipeline::RepeatKind::Extend => "extended_from",
+        };
+        for part in &rd.parts {
             let mut rec =
-                EstimateRecord::from_pose(0, 0, part, sp.score, out.estimates[a].time, None);
+                EstimateRecord::from_pose(0, 0, part, rd.score, out.estimates[a].time, None);
             rec.extra
                 .insert("alternative".into(), serde_json::json!(true));
-            rec.extra
-                .insert("split_of".into(), serde_json::json!(split_of));
+            rec.extra.insert(key.into(), serde_json::json!(source));
             rec.extra.insert("like".into(), serde_json::json!(like));
             out.estimates.push(rec);
         }
@@ -384,7 +388,7 @@ mod tests {
             improved |= best(&u) > 0.5 && parts_best <= 0.5;
         }
         assert!(improved, "the union finds the carton its halves miss");
-        // Switched off (unions, repeat splits and the detector's alternatives): the same primary records,
+        // Switched off (unions, repeat readings and the detector's alternatives): the same primary records,
         // estimated alike (alternatives share no extents with their neighbours).
         let mut off = config.clone();
         off.detect.tiled_union_score_factor = 0.0;
@@ -407,7 +411,11 @@ mod tests {
         let detector_alts: Vec<&EstimateRecord> = out
             .estimates
             .iter()
-            .filter(|r| !r.extra.contains_key("parts") && !r.extra.contains_key("split_of"))
+            .filter(|r| {
+                !["parts", "split_of", "extended_from"]
+                    .iter()
+                    .any(|k| r.extra.contains_key(*k))
+            })
             .filter(|r| r.extra.get("alternative").is_some())
             .collect();
         assert!(!detector_alts.is_empty(), "no detector alternative here");
