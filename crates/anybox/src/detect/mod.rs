@@ -335,9 +335,9 @@ pub struct DetectConfig {
     /// `repeat_split_tol`) also gives those `k` boxes, and one whose third extent is shorter
     /// (down to `repeat_extend_min_ratio`) also gives itself extended to the other's; each
     /// scored this factor times the lower of the two estimates' scores; 0 disables both. Default 0.3 (bench, 48 views per set,
-    /// seeds 2026 / 7 / 11: pallets AP@0.5 0.513 / 0.546 / 0.471 → 0.544 / 0.598 / 0.481,
-    /// tables and shelves within ±0.002, mean AP@0.7 of the 15 rows 0.444 → 0.451; 0.15
-    /// gained less, 0.6 less again, 1.0 lost 0.03 on shelves).
+    /// seeds 2026 / 7 / 11, copies only: pallets AP@0.5 0.546 / 0.471 / 0.513 → 0.598 /
+    /// 0.481 / 0.544, tables and shelves within ±0.002, mean AP@0.7 of the 15 rows 0.444 →
+    /// 0.451; 0.15 gained less, 0.6 less again, 1.0 lost 0.03 on shelves).
     pub repeat_split_score_factor: f64,
     /// ... within this relative tolerance per extent (`|ratio − k| ≤ tol × k`). Default 0.12
     /// (0.08 and 0.18 measured within 0.005 of it on every row).
@@ -346,8 +346,8 @@ pub struct DetectConfig {
     pub repeat_split_max_parts: u32,
     /// Extensions: the third extent is at least this fraction of the other's (and below 1 −
     /// `repeat_split_tol`); 0 disables extensions. Default 0.15 (bench, 48 views per set,
-    /// seeds 2026 / 7 / 11, AP@0.5 against splits alone: pallets 0.544 / 0.598 / 0.481 →
-    /// 0.551 / 0.600 / 0.483, shelves 0.556 / 0.539 / 0.464 → 0.559 / 0.546 / 0.466, tables
+    /// seeds 2026 / 7 / 11, AP@0.5 against splits alone: pallets 0.598 / 0.481 / 0.544 →
+    /// 0.600 / 0.483 / 0.551, shelves 0.539 / 0.464 / 0.556 → 0.546 / 0.466 / 0.559, tables
     /// within −0.001; mean AP@0.7 of the 15 rows 0.451 → 0.453; 0.3 gained a little less).
     pub repeat_extend_min_ratio: f64,
     /// ... when the repeated estimate scores at least this times the split one: a carton's
