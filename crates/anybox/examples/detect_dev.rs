@@ -320,6 +320,19 @@ fn score_frame(dets: &[Detection], gts: &[(Mask, f64)], objs: Option<&[u32]>, ta
     }
 }
 
+/// Paints the mask's boundary pixels (set, with a 4-neighbour unset) in `rgb`.
+fn outline(img: &mut image::RgbImage, m: &Mask, rgb: [u8; 3]) {
+    for v in 1..m.height - 1 {
+        for u in 1..m.width - 1 {
+            if m.get(u, v)
+                && !(m.get(u - 1, v) && m.get(u + 1, v) && m.get(u, v - 1) && m.get(u, v + 1))
+            {
+                img.put_pixel(u, v, image::Rgb(rgb));
+            }
+        }
+    }
+}
+
 fn dump(path: &Path, rgb: &image::RgbImage, dets: &[Detection], gts: &[(Mask, f64)]) {
     let mut img = rgb.clone();
     let w = img.width();
@@ -348,35 +361,12 @@ fn dump(path: &Path, rgb: &image::RgbImage, dets: &[Detection], gts: &[(Mask, f6
         [0, 255, 0],
     ];
     for (k, d) in dets.iter().enumerate() {
-        let m = &d.mask;
-        for vv in 1..m.height - 1 {
-            for u in 1..m.width - 1 {
-                if m.get(u, vv)
-                    && !(m.get(u - 1, vv)
-                        && m.get(u + 1, vv)
-                        && m.get(u, vv - 1)
-                        && m.get(u, vv + 1))
-                {
-                    img.put_pixel(u, vv, image::Rgb(OUTLINE[k % OUTLINE.len()]));
-                }
-            }
-        }
+        outline(&mut img, &d.mask, OUTLINE[k % OUTLINE.len()]);
     }
-    // GT outlines in white.
+    // GT outlines in white (grey below the visibility threshold).
     for (m, v) in gts {
         let c = if *v >= 0.5 { 255 } else { 128 };
-        for vv in 1..m.height - 1 {
-            for u in 1..m.width - 1 {
-                if m.get(u, vv)
-                    && !(m.get(u - 1, vv)
-                        && m.get(u + 1, vv)
-                        && m.get(u, vv - 1)
-                        && m.get(u, vv + 1))
-                {
-                    img.put_pixel(u, vv, image::Rgb([c, c, c]));
-                }
-            }
-        }
+        outline(&mut img, m, [c, c, c]);
     }
     let _ = img.save(path);
 }

@@ -338,6 +338,22 @@ mod tests {
     use super::*;
     use anybox_geom::iou::{intersection_volume_mm3, iou, IouMethod};
 
+    /// The primary record whose mask is named `n` (alternatives name their sources so).
+    fn record_named<'a>(out: &'a RunOutput, n: &serde_json::Value) -> &'a EstimateRecord {
+        out.estimates
+            .iter()
+            .find(|r| r.extra.get("mask") == Some(n))
+            .expect("alternatives name primary records")
+    }
+
+    /// The best exact 3D IoU of `b` with any ground-truth box of `v`.
+    fn best_iou(v: &anybox_synth::SynthView, b: &anybox_geom::OrientedBox) -> f64 {
+        v.boxes
+            .iter()
+            .map(|g| iou(b, &g.pose, IouMethod::Exact))
+            .fold(0.0, f64::max)
+    }
+
     /// A generated table view (seed 2026, view 12) where the detector cuts a carton in two at
     /// its flap seam: the run returns the union as an alternative, flagged, scored below both
     /// parts, and closer to the carton than either part.
@@ -357,12 +373,7 @@ mod tests {
             !alts.is_empty(),
             "no tiled union on a frame with a split carton"
         );
-        let by_name = |n: &serde_json::Value| {
-            out.estimates
-                .iter()
-                .find(|r| r.extra.get("mask") == Some(n))
-                .expect("parts name primary records")
-        };
+        let by_name = |n: &serde_json::Value| record_named(&out, n);
         let mut improved = false;
         for alt in alts {
             let parts = alt.extra["parts"].as_array().expect("two parts");
@@ -375,12 +386,7 @@ mod tests {
                 let pp = part.pose().unwrap(); // estimator output: valid
                 assert!(intersection_volume_mm3(&u, &pp) > 0.95 * pp.volume_mm3());
             }
-            let best = |b: &anybox_geom::OrientedBox| {
-                v.boxes
-                    .iter()
-                    .map(|g| iou(b, &g.pose, IouMethod::Exact))
-                    .fold(0.0, f64::max)
-            };
+            let best = |b: &anybox_geom::OrientedBox| best_iou(&v, b);
             let parts_best = parts
                 .iter()
                 .map(|p| best(&by_name(p).pose().unwrap()))
@@ -442,18 +448,8 @@ mod tests {
         let v = generate_view(&sc, 11, 0);
         let out = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &Config::default())
             .expect("a valid frame");
-        let best = |b: &anybox_geom::OrientedBox| {
-            v.boxes
-                .iter()
-                .map(|g| iou(b, &g.pose, IouMethod::Exact))
-                .fold(0.0, f64::max)
-        };
-        let by_name = |n: &serde_json::Value| {
-            out.estimates
-                .iter()
-                .find(|r| r.extra.get("mask") == Some(n))
-                .expect("split_of and like name primary records")
-        };
+        let best = |b: &anybox_geom::OrientedBox| best_iou(&v, b);
+        let by_name = |n: &serde_json::Value| record_named(&out, n);
         let mut found = false;
         for r in out
             .estimates
