@@ -455,9 +455,10 @@ pub struct DetectionResult {
     /// the estimator rejects is not counted.
     pub n_detections: usize,
     /// Alternative readings per frame, summed: the detector's
-    /// ([`crate::detect::Detection::alternative`]) and the unions of split cartons
-    /// ([`crate::pipeline::tiled_unions`], [`crate::pipeline::gap_unions`]); evaluated with the
-    /// detections, not counted in `n_detections`.
+    /// ([`crate::detect::Detection::alternative`]), the unions of split cartons
+    /// ([`crate::pipeline::tiled_unions`], [`crate::pipeline::gap_unions`]) and the repeat
+    /// readings ([`crate::pipeline::repeat_readings`]); evaluated with the detections, not
+    /// counted in `n_detections`.
     pub n_alternatives: usize,
     /// Estimates whose best 3D IoU with every ground truth of the frame is ≤ 0.1 (clear false
     /// positives), summed.

@@ -561,8 +561,7 @@ fn union_pairs(
             let Some(u) = tiled_union(pa, pb, cfg.tiled_union_max_angle_deg, min_fill) else {
                 continue;
             };
-            let shared = anybox_geom::iou::intersection_volume_mm3(pa, pb);
-            if shared > cfg.tiled_union_max_shared * pa.volume_mm3().min(pb.volume_mm3()) {
+            if overlap_too_large(pa, pb, cfg) {
                 continue;
             }
             if !keep(&u, (pa.volume_mm3() + pb.volume_mm3()) / u.volume_mm3()) {
@@ -601,15 +600,15 @@ pub struct RepeatReading {
     /// The boxes of the new reading (the `k` copies in order along the split axis, or the one
     /// extended box), camera frame, mm, in the source's axes.
     pub parts: Vec<OrientedBox>,
-    /// The lower of the two estimates' scores times
-    /// [`DetectConfig::repeat_split_score_factor`](crate::detect::DetectConfig::repeat_split_score_factor).
+    /// The lower of the two estimates' scores times `repeat_split_score_factor`
+    /// ([`DetectConfig`](crate::detect::DetectConfig)).
     pub score: f64,
 }
 
 /// Alternative readings for a frame's estimates from detected masks (`boxes`: pose and score
-/// of each), by the sizes of the others. When an estimate's axes are parallel to another's
-/// (within `tiled_union_max_angle_deg`), two of its extents equal that other's and the third
-/// differs (every ratio within `repeat_split_tol`), it is also read as
+/// of each), by the sizes of the others. When each of an estimate's axes is within
+/// `tiled_union_max_angle_deg` of one of another's, two of its extents equal that other's and
+/// the third differs (every ratio within `repeat_split_tol`), it is also read as
 /// - **split** ([`RepeatKind::Split`]): the third extent is `k` times the other's
 ///   (2 ≤ k ≤ `repeat_split_max_parts`): `k` boxes cut along that axis;
 /// - **extended** ([`RepeatKind::Extend`]): the third extent is shorter, at least
@@ -634,7 +633,6 @@ pub fn repeat_readings(
     if cfg.repeat_split_score_factor <= 0.0 {
         return out;
     }
-    let cos_max = cfg.tiled_union_max_angle_deg.to_radians().cos();
     for (s, (ps, ss)) in boxes.iter().enumerate() {
         let mut best: Option<(usize, Repeat, f64)> = None;
         for (r, (pr, sr)) in boxes.iter().enumerate() {
@@ -644,7 +642,7 @@ pub fn repeat_readings(
             {
                 continue;
             }
-            let Some(rep) = repeat_of(ps, pr, cos_max, cfg) else {
+            let Some(rep) = repeat_of(ps, pr, cfg) else {
                 continue;
             };
             // Growing a box takes a reference trusted more than the box itself (else a
@@ -652,8 +650,7 @@ pub fn repeat_readings(
             if matches!(rep, Repeat::Extend { .. }) && sr < ss {
                 continue;
             }
-            let shared = anybox_geom::iou::intersection_volume_mm3(ps, pr);
-            if shared > cfg.tiled_union_max_shared * ps.volume_mm3().min(pr.volume_mm3()) {
+            if overlap_too_large(ps, pr, cfg) {
                 continue;
             }
             best = Some((r, rep, *sr));
@@ -712,16 +709,17 @@ enum Repeat {
     Extend { axis: usize, to_mm: f64 },
 }
 
-/// Whether `a` repeats `b`'s size: each of `a`'s axes parallel to one of `b`'s (|cos| ≥
-/// `cos_max`), two extent ratios within `repeat_split_tol` of 1 and the third either within
+/// Whether `a` repeats `b`'s size: each of `a`'s axes within `tiled_union_max_angle_deg` of
+/// one of `b`'s (per axis; [`tiled_union`] bounds the geodesic angle between the frames
+/// instead, which is stricter), two extent ratios within `repeat_split_tol` of 1 and the third either within
 /// that tolerance of a whole `k` in 2..=`repeat_split_max_parts` or below 1 − tolerance and at
 /// least `repeat_extend_min_ratio` (when that is above 0).
 fn repeat_of(
     a: &OrientedBox,
     b: &OrientedBox,
-    cos_max: f64,
     cfg: &crate::detect::DetectConfig,
 ) -> Option<Repeat> {
+    let cos_max = cfg.tiled_union_max_angle_deg.to_radians().cos();
     let tol = cfg.repeat_split_tol.max(0.0);
     let mut ratio = [0.0f64; 3];
     let mut other = [0usize; 3];
@@ -752,6 +750,13 @@ fn repeat_of(
         axis,
         to_mm: b.size_mm[other[axis]],
     })
+}
+
+/// Whether `a` and `b` share more than `tiled_union_max_shared` of the smaller one's volume:
+/// then they are not two boxes side by side, and neither unions nor repeat readings pair them.
+fn overlap_too_large(a: &OrientedBox, b: &OrientedBox, cfg: &crate::detect::DetectConfig) -> bool {
+    let shared = anybox_geom::iou::intersection_volume_mm3(a, b);
+    shared > cfg.tiled_union_max_shared * a.volume_mm3().min(b.volume_mm3())
 }
 
 /// Pixels sampled by the see-through test of [`gap_unions`]: about 1000 measure a share near

@@ -157,7 +157,8 @@ pub fn run_detected_frame(
 ) -> Result<RunOutput, crate::segmentation::SegmentationError> {
     let masks = crate::segmentation::detect_masks(rgb, depth, intrinsics, &config.detect)?;
     let mut out = run_frame(depth, intrinsics, &masks, &config.for_detected_masks());
-    // Unions of the detections only: an alternative overlaps the detections it replaces.
+    // Alternatives are read from the detections only: an alternative overlaps the detections
+    // it replaces.
     let (idx, scored): (Vec<usize>, Vec<(anybox_geom::OrientedBox, f64)>) = out
         .estimates
         .iter()
@@ -165,6 +166,9 @@ pub fn run_detected_frame(
         .filter(|(_, r)| r.extra.get("alternative").is_none())
         .filter_map(|(i, r)| r.pose().ok().map(|p| (i, (p, r.score))))
         .unzip();
+    let name = |i: usize| out.estimates[i].extra.get("mask").cloned();
+    let time = out.estimates.first().map_or(0.0, |r| r.time);
+    let mut alts = Vec::new();
     let unions = crate::pipeline::tiled_unions(&scored, &config.detect)
         .into_iter()
         .chain(crate::pipeline::gap_unions(
@@ -175,34 +179,48 @@ pub fn run_detected_frame(
         ));
     for u in unions {
         let [a, b] = u.parts.map(|k| idx[k]);
-        let name = |i: usize| out.estimates[i].extra.get("mask").cloned();
-        let mut rec =
-            EstimateRecord::from_pose(0, 0, &u.pose, u.score, out.estimates[a].time, None);
-        rec.extra
-            .insert("alternative".into(), serde_json::json!(true));
-        rec.extra
-            .insert("parts".into(), serde_json::json!([name(a), name(b)]));
-        out.estimates.push(rec);
+        let parts = serde_json::json!([name(a), name(b)]);
+        alts.push(alternative_record(
+            &u.pose,
+            u.score,
+            time,
+            [("parts", parts)],
+        ));
     }
     for rd in crate::pipeline::repeat_readings(&scored, &config.detect) {
-        let (a, b) = (idx[rd.source], idx[rd.reference]);
-        let name = |i: usize| out.estimates[i].extra.get("mask").cloned();
-        let (source, like) = (name(a), name(b));
         let key = match rd.kind {
             crate::pipeline::RepeatKind::Split => "split_of",
             crate::pipeline::RepeatKind::Extend => "extended_from",
         };
+        let (source, like) = (name(idx[rd.source]), name(idx[rd.reference]));
         for part in &rd.parts {
-            let mut rec =
-                EstimateRecord::from_pose(0, 0, part, rd.score, out.estimates[a].time, None);
-            rec.extra
-                .insert("alternative".into(), serde_json::json!(true));
-            rec.extra.insert(key.into(), serde_json::json!(source));
-            rec.extra.insert("like".into(), serde_json::json!(like));
-            out.estimates.push(rec);
+            let keys = [
+                (key, serde_json::json!(source)),
+                ("like", serde_json::json!(like)),
+            ];
+            alts.push(alternative_record(part, rd.score, time, keys));
         }
     }
+    out.estimates.extend(alts);
     Ok(out)
+}
+
+/// The record of an alternative reading (scene and image id 0, as the frame's records):
+/// `pose`, `score`, the frame's `time_s`, `"alternative": true` and `keys` naming the
+/// detections it was read from.
+fn alternative_record<const N: usize>(
+    pose: &anybox_geom::OrientedBox,
+    score: f64,
+    time_s: f64,
+    keys: [(&str, serde_json::Value); N],
+) -> EstimateRecord {
+    let mut rec = EstimateRecord::from_pose(0, 0, pose, score, time_s, None);
+    rec.extra
+        .insert("alternative".into(), serde_json::json!(true));
+    for (k, v) in keys {
+        rec.extra.insert(k.into(), v);
+    }
+    rec
 }
 
 /// Dataset mode: every view in parallel, `on_view` called after each view (for a progress bar).
@@ -394,8 +412,9 @@ mod tests {
             improved |= best(&u) > 0.5 && parts_best <= 0.5;
         }
         assert!(improved, "the union finds the carton its halves miss");
-        // Switched off (unions, repeat readings and the detector's alternatives): the same primary records,
-        // estimated alike (alternatives share no extents with their neighbours).
+        // Switched off (unions, repeat readings and the detector's alternatives): the same
+        // primary records, estimated alike (alternatives share no extents with their
+        // neighbours).
         let mut off = config.clone();
         off.detect.tiled_union_score_factor = 0.0;
         off.detect.repeat_split_score_factor = 0.0;

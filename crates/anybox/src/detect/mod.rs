@@ -334,10 +334,11 @@ pub struct DetectConfig {
     /// (parallel axes, two extents equal and the third `k` times, all within
     /// `repeat_split_tol`) also gives those `k` boxes, and one whose third extent is shorter
     /// (down to `repeat_extend_min_ratio`) also gives itself extended to the other's; each
-    /// scored this factor times the lower of the two estimates' scores; 0 disables both. Default 0.3 (bench, 48 views per set,
-    /// seeds 2026 / 7 / 11, copies only: pallets AP@0.5 0.546 / 0.471 / 0.513 → 0.598 /
-    /// 0.481 / 0.544, tables and shelves within ±0.002, mean AP@0.7 of the 15 rows 0.444 →
-    /// 0.451; 0.15 gained less, 0.6 less again, 1.0 lost 0.03 on shelves).
+    /// scored this factor times the lower of the two estimates' scores; 0 disables both.
+    /// Default 0.3 (bench, 48 views per set, seeds 2026 / 7 / 11, copies only: pallets AP@0.5
+    /// 0.546 / 0.471 / 0.513 → 0.598 / 0.481 / 0.544, tables and shelves within ±0.002, mean
+    /// AP@0.7 of the 15 rows 0.444 → 0.451; 0.15 gained less, 0.6 less again, 1.0 lost 0.03 on
+    /// shelves; with extensions, 0.4 lost 0.001).
     pub repeat_split_score_factor: f64,
     /// ... within this relative tolerance per extent (`|ratio − k| ≤ tol × k`). Default 0.12
     /// (0.08 and 0.18 measured within 0.005 of it on every row).
