@@ -10,10 +10,12 @@
 //! direction holds two parallel planes (touching boxes of different heights joined through a
 //! flush side) is cut along the axis that separates them, recursively. Objects that fit a
 //! cuboid badly (`blob_min_fit`, `blob_min_agree`) or whose faces bend (`max_bend_deg`: a
-//! cylinder's side) are dropped. One that passes is still cut where its plain colour changes
-//! across every face the cut crosses (`blob_colour_cut_delta`: two boxes of different colours
-//! stacked or end to end, sides flush); flush cartons of one colour that fit one cuboid are
-//! split in `select` by their seams, as surfaces are.
+//! cylinder's side) are dropped, unless their plain colour changes across every face a cut
+//! crosses (`blob_colour_cut_misfits`: two boxes of different colours touching, turned to each
+//! other, make one object that fits no cuboid); the parts are then tried again. One that passes
+//! is still cut where its plain colour changes so (`blob_colour_cut_delta`: two boxes of
+//! different colours stacked or end to end, sides flush); flush cartons of one colour that fit
+//! one cuboid are split in `select` by their seams, as surfaces are.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -458,18 +460,23 @@ fn object_candidates(
                         fr.bend_deg
                     );
                 }
-                if fr.fit < cfg.blob_min_fit
+                let misfit = fr.fit < cfg.blob_min_fit
                     || fr.agree < cfg.blob_min_agree
-                    || fr.bend_deg > cfg.max_bend_deg
-                {
+                    || fr.bend_deg > cfg.max_bend_deg;
+                if misfit && !cfg.blob_colour_cut_misfits {
                     continue;
                 }
-                // A box-like object may still be two boxes of different colours, flush.
-                if depth < cfg.blob_max_cuts {
+                // A box-like object may still be two boxes of different colours, flush; one
+                // that fits no cuboid may be two boxes of different colours touching.
+                let cut = if depth < cfg.blob_max_cuts {
                     find_colour_cut(g, &fr, &blob, cfg).map(|c| (c, "colour"))
                 } else {
                     None
+                };
+                if misfit && cut.is_none() {
+                    continue;
                 }
+                cut
             }
         };
         if let Some(((e, s0), why)) = cut {

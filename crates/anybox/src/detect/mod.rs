@@ -467,6 +467,13 @@ pub struct DetectConfig {
     /// this. Generated boxes measure 0.01–0.06, the printed boxes of ycbv-boxes 0.1–0.3.
     /// Default 0.1.
     pub blob_colour_cut_max_spread: f64,
+    /// The colour cut is also tried on objects that fit no cuboid (`blob_min_fit`,
+    /// `blob_min_agree`, `max_bend_deg`), which are otherwise dropped: two boxes of different
+    /// colours touching at an angle, or a small box against a long one, make one such object.
+    /// Each part is then tried as a box again. Default true (bench AP@0.5 over the 15 generated
+    /// rows of seeds 2026 / 7 / 11, 48 frames each: 0.6048 → 0.6098 on average, every table row
+    /// +0.005 to +0.010, shelves +0.006 on seed 2026, nothing lower).
+    pub blob_colour_cut_misfits: bool,
     /// At most this many successive step cuts per object. Default 6.
     pub blob_max_cuts: u32,
     /// Cells within this multiple of the plane tolerance of a support plane are cut off
@@ -608,6 +615,7 @@ impl Default for DetectConfig {
             side_strip_min_cells: 60,
             blobs: true,
             blob_split_concave: true,
+            blob_colour_cut_misfits: true,
             blob_max_cuts: 6,
             blob_colour_cut_delta: 0.35,
             blob_colour_cut_min_fraction: 0.15,
