@@ -11,7 +11,8 @@
 //! flush side) is cut along the axis that separates them, recursively. Objects that fit a
 //! cuboid badly (`blob_min_fit`, `blob_min_agree`) or whose faces bend (`max_bend_deg`: a
 //! cylinder's side) are dropped, unless their plain colour changes across every face a cut
-//! crosses (`blob_colour_cut_misfits`: two boxes of different colours touching, turned to each
+//! crosses, or failing that, their cells fall into two clusters of clearly different hue
+//! (`blob_colour_cut_misfits`: two boxes of different colours touching, or turned to each
 //! other, make one object that fits no cuboid); the parts are then tried again. One that passes
 //! is still cut where its plain colour changes so (`blob_colour_cut_delta`: two boxes of
 //! different colours stacked or end to end, sides flush); flush cartons of one colour that fit
@@ -474,6 +475,31 @@ fn object_candidates(
                     None
                 };
                 if misfit && cut.is_none() {
+                    // Turned to each other, two boxes share no axis to cut along: their
+                    // colours part them.
+                    let small = blob.len() <= cfg.blob_colour_split_max_cells as usize;
+                    let split = (depth < cfg.blob_max_cuts && small)
+                        .then(|| two_colours(g, &blob, cfg))
+                        .flatten();
+                    if let Some((lo, hi)) = split {
+                        if dbg && blob.len() > 200 {
+                            log::debug!(
+                                "blob {b}.{pi} n {} two colours: {} + {}",
+                                blob.len(),
+                                lo.len(),
+                                hi.len()
+                            );
+                        }
+                        for &i in &hi {
+                            // Every cell of a part is one of the object's cells.
+                            if let Ok(k) = cells.binary_search(&i) {
+                                part[k] = next;
+                            }
+                        }
+                        work.push((pi, lo, depth + 1));
+                        work.push((next, hi, depth + 1));
+                        next += 1;
+                    }
                     continue;
                 }
                 cut
@@ -515,4 +541,67 @@ fn object_candidates(
         }
     }
     out
+}
+
+/// The cells of an object that fits no cuboid, parted by colour: two clusters of the cells'
+/// chromaticities ((r, g, b) / (r + g + b) of their smoothed colours; 2-means, 8 rounds,
+/// seeded with the one farthest from the mean and the one farthest from that), when their
+/// centres differ by at least `blob_colour_split_min_chroma` and each holds at least
+/// `blob_colour_cut_min_fraction` of the cells. Deterministic.
+fn two_colours(g: &Grid, blob: &[u32], cfg: &DetectConfig) -> Option<(Vec<u32>, Vec<u32>)> {
+    // Chromaticity: shading scales a face's colour and leaves it unchanged.
+    let col = |i: u32| {
+        let c = Vector3::from(g.c[i as usize]).cast::<f64>();
+        c / (c.x + c.y + c.z).max(1.0)
+    };
+    let n = blob.len();
+    if n < 32 {
+        return None;
+    }
+    let mean: Vector3<f64> = blob.iter().map(|&i| col(i)).sum::<Vector3<f64>>() / n as f64;
+    let far = |from: &Vector3<f64>| {
+        blob.iter().copied().max_by(|&a, &b| {
+            (col(a) - from)
+                .norm_squared()
+                .total_cmp(&(col(b) - from).norm_squared())
+        })
+    };
+    let a0 = far(&mean)?;
+    let b0 = far(&col(a0))?;
+    let (mut ca, mut cb) = (col(a0), col(b0));
+    let mut in_a = vec![false; n];
+    for _ in 0..8 {
+        let (mut sa, mut sb, mut na, mut nb) = (Vector3::zeros(), Vector3::zeros(), 0usize, 0usize);
+        for (k, &i) in blob.iter().enumerate() {
+            let c = col(i);
+            in_a[k] = (c - ca).norm_squared() <= (c - cb).norm_squared();
+            if in_a[k] {
+                sa += c;
+                na += 1;
+            } else {
+                sb += c;
+                nb += 1;
+            }
+        }
+        if na == 0 || nb == 0 {
+            return None;
+        }
+        (ca, cb) = (sa / na as f64, sb / nb as f64);
+    }
+    let na = in_a.iter().filter(|&&x| x).count();
+    let frac = cfg.blob_colour_cut_min_fraction;
+    if (ca - cb).norm() < cfg.blob_colour_split_min_chroma
+        || (na.min(n - na) as f64) < frac * n as f64
+    {
+        return None;
+    }
+    let (mut lo, mut hi) = (Vec::new(), Vec::new());
+    for (k, &i) in blob.iter().enumerate() {
+        if in_a[k] {
+            lo.push(i);
+        } else {
+            hi.push(i);
+        }
+    }
+    Some((lo, hi))
 }
