@@ -448,8 +448,26 @@ fn object_candidates(
         } else {
             None
         };
-        let cut = match step {
-            Some(c) => Some((c, "step")),
+        // The object's cells either side of the plane {p·e = s0}, logged.
+        let by_plane = |(e, s0): (Vector3<f64>, f64), why: &str| {
+            let (lo, hi): (Vec<u32>, Vec<u32>) = blob
+                .iter()
+                .partition(|&&i| v3(&g.p[i as usize]).dot(&e) < s0);
+            if dbg && blob.len() > 200 {
+                log::debug!(
+                    "blob {b}.{pi} n {} {why} cut at {s0:.0} along {:.2} {:.2} {:.2}: {} + {}",
+                    blob.len(),
+                    e.x,
+                    e.y,
+                    e.z,
+                    lo.len(),
+                    hi.len()
+                );
+            }
+            (lo, hi)
+        };
+        let parts = match step {
+            Some(c) => Some(by_plane(c, "step")),
             None => {
                 if dbg && blob.len() > 200 {
                     log::debug!(
@@ -470,18 +488,22 @@ fn object_candidates(
                 // A box-like object may still be two boxes of different colours, flush; one
                 // that fits no cuboid may be two boxes of different colours touching.
                 let cut = if depth < cfg.blob_max_cuts {
-                    find_colour_cut(g, &fr, &blob, cfg).map(|c| (c, "colour"))
+                    find_colour_cut(g, &fr, &blob, cfg)
                 } else {
                     None
                 };
-                if misfit && cut.is_none() {
-                    // Turned to each other, two boxes share no axis to cut along: their
-                    // colours part them.
-                    let small = blob.len() <= cfg.blob_colour_split_max_cells as usize;
-                    let split = (depth < cfg.blob_max_cuts && small)
-                        .then(|| two_colours(g, &blob, cfg))
-                        .flatten();
-                    if let Some((lo, hi)) = split {
+                match cut {
+                    Some(c) => Some(by_plane(c, "colour")),
+                    None if misfit => {
+                        // Turned to each other, two boxes share no axis to cut along: their
+                        // colours part them.
+                        let small = blob.len() <= cfg.blob_colour_split_max_cells as usize;
+                        let split = (depth < cfg.blob_max_cuts && small)
+                            .then(|| two_colours(g, &blob, cfg))
+                            .flatten();
+                        let Some((lo, hi)) = split else {
+                            continue;
+                        };
                         if dbg && blob.len() > 200 {
                             log::debug!(
                                 "blob {b}.{pi} n {} two colours: {} + {}",
@@ -490,36 +512,13 @@ fn object_candidates(
                                 hi.len()
                             );
                         }
-                        for &i in &hi {
-                            // Every cell of a part is one of the object's cells.
-                            if let Ok(k) = cells.binary_search(&i) {
-                                part[k] = next;
-                            }
-                        }
-                        work.push((pi, lo, depth + 1));
-                        work.push((next, hi, depth + 1));
-                        next += 1;
+                        Some((lo, hi))
                     }
-                    continue;
+                    None => None,
                 }
-                cut
             }
         };
-        if let Some(((e, s0), why)) = cut {
-            let (lo, hi): (Vec<u32>, Vec<u32>) = blob
-                .iter()
-                .partition(|&&i| v3(&g.p[i as usize]).dot(&e) < s0);
-            if dbg && blob.len() > 200 {
-                log::debug!(
-                    "blob {b}.{pi} n {} {why} cut at {s0:.0} along {:.2} {:.2} {:.2}: {} + {}",
-                    blob.len(),
-                    e.x,
-                    e.y,
-                    e.z,
-                    lo.len(),
-                    hi.len()
-                );
-            }
+        if let Some((lo, hi)) = parts {
             for &i in &hi {
                 // Every cell of a part is one of the object's cells.
                 if let Ok(k) = cells.binary_search(&i) {

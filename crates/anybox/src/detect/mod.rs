@@ -491,7 +491,8 @@ pub struct DetectConfig {
     /// without `blob_colour_split_max_cells`). Default 0.08 (0.05 gave the same AP@0.5 and 5
     /// more clear false positives over the 15 rows).
     pub blob_colour_split_min_chroma: f64,
-    /// At most this many successive step cuts per object. Default 6.
+    /// At most this many successive cuts per object (steps, colour cuts and colour clusters
+    /// alike). Default 6.
     pub blob_max_cuts: u32,
     /// Cells within this multiple of the plane tolerance of a support plane are cut off
     /// objects (so a box does not join the table at its foot). Default 1.5.
