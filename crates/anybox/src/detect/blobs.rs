@@ -548,55 +548,56 @@ fn object_candidates(
 /// centres differ by at least `blob_colour_split_min_chroma` and each holds at least
 /// `blob_colour_cut_min_fraction` of the cells. Deterministic.
 fn two_colours(g: &Grid, blob: &[u32], cfg: &DetectConfig) -> Option<(Vec<u32>, Vec<u32>)> {
-    // Chromaticity: shading scales a face's colour and leaves it unchanged.
-    let col = |i: u32| {
-        let c = Vector3::from(g.c[i as usize]).cast::<f64>();
-        c / (c.x + c.y + c.z).max(1.0)
-    };
     let n = blob.len();
     if n < 32 {
         return None;
     }
-    let mean: Vector3<f64> = blob.iter().map(|&i| col(i)).sum::<Vector3<f64>>() / n as f64;
+    // Chromaticity: shading scales a face's colour and leaves it unchanged.
+    let chroma: Vec<Vector3<f64>> = blob
+        .iter()
+        .map(|&i| {
+            let c = Vector3::from(g.c[i as usize]).cast::<f64>();
+            c / (c.x + c.y + c.z).max(1.0)
+        })
+        .collect();
+    let mean: Vector3<f64> = chroma.iter().sum::<Vector3<f64>>() / n as f64;
     let far = |from: &Vector3<f64>| {
-        blob.iter().copied().max_by(|&a, &b| {
-            (col(a) - from)
+        chroma.iter().copied().max_by(|a, b| {
+            (a - from)
                 .norm_squared()
-                .total_cmp(&(col(b) - from).norm_squared())
+                .total_cmp(&(b - from).norm_squared())
         })
     };
-    let a0 = far(&mean)?;
-    let b0 = far(&col(a0))?;
-    let (mut ca, mut cb) = (col(a0), col(b0));
+    let mut ca = far(&mean)?;
+    let mut cb = far(&ca)?;
     let mut in_a = vec![false; n];
+    let mut na = 0;
     for _ in 0..8 {
-        let (mut sa, mut sb, mut na, mut nb) = (Vector3::zeros(), Vector3::zeros(), 0usize, 0usize);
-        for (k, &i) in blob.iter().enumerate() {
-            let c = col(i);
+        let (mut sa, mut sb) = (Vector3::zeros(), Vector3::zeros());
+        na = 0;
+        for (k, c) in chroma.iter().enumerate() {
             in_a[k] = (c - ca).norm_squared() <= (c - cb).norm_squared();
             if in_a[k] {
                 sa += c;
                 na += 1;
             } else {
                 sb += c;
-                nb += 1;
             }
         }
-        if na == 0 || nb == 0 {
+        if na == 0 || na == n {
             return None;
         }
-        (ca, cb) = (sa / na as f64, sb / nb as f64);
+        (ca, cb) = (sa / na as f64, sb / (n - na) as f64);
     }
-    let na = in_a.iter().filter(|&&x| x).count();
     let frac = cfg.blob_colour_cut_min_fraction;
     if (ca - cb).norm() < cfg.blob_colour_split_min_chroma
         || (na.min(n - na) as f64) < frac * n as f64
     {
         return None;
     }
-    let (mut lo, mut hi) = (Vec::new(), Vec::new());
-    for (k, &i) in blob.iter().enumerate() {
-        if in_a[k] {
+    let (mut lo, mut hi) = (Vec::with_capacity(na), Vec::with_capacity(n - na));
+    for (&i, a) in blob.iter().zip(in_a) {
+        if a {
             lo.push(i);
         } else {
             hi.push(i);
