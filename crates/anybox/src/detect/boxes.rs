@@ -747,7 +747,9 @@ pub(crate) fn group_candidates(
 /// `fill_margin_factor` plane tolerances (edge bands, a grazing side face, the foot of a box
 /// cut off next to its support, missing depth inside the silhouette) are added, best
 /// candidates first. `claimed` marks cells that are never added: supports and every
-/// candidate's own cells.
+/// candidate's own cells. A candidate then takes in its faces' continuation past an occluder
+/// (`occluded`), absorbing another candidate found there (the joined candidate keeps the
+/// higher score; the absorbed one is dropped).
 pub(crate) fn fill(
     g: &Grid,
     raws: Vec<Raw>,
@@ -755,14 +757,24 @@ pub(crate) fn fill(
     cfg: &DetectConfig,
 ) -> Vec<Candidate> {
     let (w, h) = (g.w, g.h);
-    for raw in &raws {
+    // Each cell's candidate, for the occluded continuations (which may absorb another).
+    let mut owner = vec![u32::MAX; g.z.len()];
+    for (k, raw) in raws.iter().enumerate() {
         for &i in &raw.cells {
             claimed[i as usize] = true;
+            owner[i as usize] = k as u32;
         }
     }
-    let mut result = Vec::with_capacity(raws.len());
-    for raw in raws {
-        let mut cells = raw.cells;
+    let sizes: Vec<usize> = raws.iter().map(|r| r.cells.len()).collect();
+    let mut result: Vec<Option<Candidate>> = Vec::with_capacity(raws.len());
+    let mut absorbed = vec![false; raws.len()];
+    for (k, raw) in raws.iter().enumerate() {
+        if absorbed[k] {
+            result.push(None);
+            continue;
+        }
+        let mut cells = raw.cells.clone();
+        let mut score = raw.score;
         let margin = cfg.fill_margin_factor * plane_tol(cfg, raw.bx.center_mm.z.max(1.0));
         let grown = OrientedBox {
             size_mm: raw.bx.size_mm.add_scalar(2.0 * margin),
@@ -794,6 +806,30 @@ pub(crate) fn fill(
                 }
             }
         }
+        let holders = super::occluded::Holders {
+            claimed,
+            owner: &owner,
+            sizes: &sizes,
+        };
+        let cont = super::occluded::continuation(g, &raw.bx, k, &cells, &holders, cfg);
+        for i in cont.cells {
+            claimed[i as usize] = true;
+            cells.push(i);
+        }
+        for j in cont.absorbed {
+            if absorbed[j] {
+                continue;
+            }
+            absorbed[j] = true;
+            score = score.max(raws[j].score);
+            match result.get_mut(j).and_then(Option::take) {
+                // Filled already: its cells and strips.
+                Some(c) => cells.extend(c.cells.into_iter().chain(c.strip)),
+                None => cells.extend(&raws[j].cells),
+            }
+        }
+        cells.sort_unstable();
+        cells.dedup();
         let mut strip = Vec::new();
         if raw.n_faces == 1 {
             strip = side_strips(g, &raw.bx, &cells, claimed, cfg);
@@ -803,14 +839,14 @@ pub(crate) fn fill(
         }
         cells.sort_unstable();
         strip.sort_unstable();
-        result.push(Candidate {
+        result.push(Some(Candidate {
             cells,
             strip,
-            score: raw.score,
+            score,
             n_faces: raw.n_faces,
-        });
+        }));
     }
-    result
+    result.into_iter().flatten().collect()
 }
 
 /// The side faces of a one-face candidate seen past its edges, as unclaimed grid cells.

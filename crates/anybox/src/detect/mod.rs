@@ -25,8 +25,10 @@
 //! Object-, surface- and colour-level candidates then compete by score; a coarse candidate with
 //! a seam between coplanar colour patches (flush cartons) gives way to the finer ones; what
 //! the selected candidates leave of an object is tried as a box again
-//! ([`DetectConfig::residual_score_factor`]). A one-face candidate's mask also takes in the
-//! side faces seen as thin strips past its edges ([`DetectConfig::side_strip_max_mm`]).
+//! ([`DetectConfig::residual_score_factor`]). A candidate cut in two by a nearer thing takes
+//! in its other piece past the occluder (`occluded`, [`DetectConfig::occluded_reach_mm`]). A
+//! one-face candidate's mask also takes in the side faces seen as thin strips past its edges
+//! ([`DetectConfig::side_strip_max_mm`]).
 //! Output masks lose the spurs that the fill stitched on (an opening,
 //! [`DetectConfig::mask_open_px`]) and keep, per pixel, only the front
 //! surface of their grid cell; output scores are the box-likeness times an evidence factor
@@ -42,6 +44,7 @@ mod boxes;
 mod grid;
 mod halves;
 mod lines;
+mod occluded;
 mod regions;
 
 use anybox_geom::Intrinsics;
@@ -441,6 +444,24 @@ pub struct DetectConfig {
     pub side_strip_slack_deg: f64,
     /// ... and only where at least this many cells lie behind one edge. Default 60.
     pub side_strip_min_cells: u32,
+    /// A candidate's faces cut in two by a nearer thing standing across them are taken in past
+    /// it, up to this far beyond the candidate's end along each of its cuboid's axes, mm (see
+    /// `occluded`): going outwards, an occluder (distance bins of 10 mm mostly in front of the
+    /// extended cuboid's surface), then a run of bins mostly on that surface, unclaimed, of
+    /// about the candidate's colour. 0 disables. Default 400.
+    pub occluded_reach_mm: f64,
+    /// ... a bin is "mostly" one kind with at least this fraction of its cells (also the share
+    /// of cells right past the end that must lie in front). Default 0.5.
+    pub occluded_min_front: f64,
+    /// ... and the run takes in at least this many cells. Default 12.
+    pub occluded_min_cells: u32,
+    /// ... whose mean colour is within this of the candidate's cells next to the occluder,
+    /// RGB levels. Default 30.
+    pub occluded_colour_max: f64,
+    /// Another candidate lying on the run with at least this fraction of its own cells is the
+    /// same box's other piece: it joins the candidate (which keeps the higher score). Default
+    /// 0.6.
+    pub occluded_absorb_fraction: f64,
     /// Object-level candidates: every connected object left after support removal (cells
     /// joined by depth continuity alone) is also tried as one box (see `blobs`). Default true.
     pub blobs: bool,
@@ -631,6 +652,11 @@ impl Default for DetectConfig {
             mask_open_px: 3,
             side_strip_slack_deg: 4.0,
             side_strip_min_cells: 60,
+            occluded_reach_mm: 400.0,
+            occluded_min_front: 0.5,
+            occluded_min_cells: 12,
+            occluded_colour_max: 30.0,
+            occluded_absorb_fraction: 0.6,
             blobs: true,
             blob_split_concave: true,
             blob_colour_cut_misfits: true,
