@@ -828,8 +828,6 @@ pub(crate) fn fill(
                 None => cells.extend(&raws[j].cells),
             }
         }
-        cells.sort_unstable();
-        cells.dedup();
         let mut strip = Vec::new();
         if raw.n_faces == 1 {
             strip = side_strips(g, &raw.bx, &cells, claimed, cfg);
@@ -837,7 +835,9 @@ pub(crate) fn fill(
                 claimed[i as usize] = true;
             }
         }
+        // An absorbed candidate may share cells with this one (candidates overlap a little).
         cells.sort_unstable();
+        cells.dedup();
         strip.sort_unstable();
         result.push(Some(Candidate {
             cells,

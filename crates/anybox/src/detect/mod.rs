@@ -447,8 +447,8 @@ pub struct DetectConfig {
     /// A candidate's faces cut in two by a nearer thing standing across them are taken in past
     /// it, up to this far beyond the candidate's end along each of its cuboid's axes, mm (see
     /// `occluded`): going outwards, an occluder (distance bins of 10 mm mostly in front of the
-    /// extended cuboid's surface), then a run of bins mostly on that surface, unclaimed, of
-    /// about the candidate's colour. 0 disables. Default 400.
+    /// extended cuboid's surface), then a run of bins mostly on that surface (unclaimed cells,
+    /// or another candidate's own), of about the candidate's colour. 0 disables. Default 400.
     pub occluded_reach_mm: f64,
     /// ... a bin is "mostly" one kind with at least this fraction of its cells (also the share
     /// of cells right past the end that must lie in front). Default 0.5.
@@ -456,7 +456,9 @@ pub struct DetectConfig {
     /// ... and the run takes in at least this many cells. Default 12.
     pub occluded_min_cells: u32,
     /// ... whose mean colour is within this of the candidate's cells next to the occluder,
-    /// RGB levels. Default 30.
+    /// RGB levels; the occluder's mean colour must differ from theirs by more than this (an
+    /// occluder of the candidate's own colour may be a carton of the same product whose
+    /// faces line up with it). Default 30.
     pub occluded_colour_max: f64,
     /// Another candidate lying on the run with at least this fraction of its own cells is the
     /// same box's other piece: it joins the candidate (which keeps the higher score). Default

@@ -140,9 +140,10 @@ fn slab(bx: &OrientedBox, axis: usize, sign: f64, from_mm: f64, to_mm: f64) -> O
     }
 }
 
-/// Per cell (every `stride`-th each way) whose ray meets `ext` but not `bx` (within the grid's bounding box of its silhouette): the
-/// cell, its kind, and its distance beyond `bx`'s end along the axis, mm (of its own point when
-/// on the surface, else of where its ray enters the extension).
+/// Per cell (every `stride`-th each way, within the grid's bounding box of `ext`'s
+/// silhouette) whose ray meets `ext` but not `bx`: the cell, its kind, and its distance
+/// beyond `bx`'s end along the axis, mm (of its own point when on the surface, else of where
+/// its ray enters the extension).
 fn classify(
     g: &Grid,
     bx: &OrientedBox,

@@ -865,13 +865,22 @@ fn best_iou_in_table_view(
         .expect("the carton is in the scene")
         .mask_visib
         .clone();
-    move |cfg| {
-        detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg)
-            .unwrap()
-            .iter()
-            .map(|d| d.mask.iou(&gt))
-            .fold(0.0, f64::max)
-    }
+    move |cfg| best_iou(&v.rgb, &v.depth, &v.intrinsics, &gt, cfg)
+}
+
+/// The best mask IoU of any detection in the frame with `gt`.
+fn best_iou(
+    rgb: &RgbImage,
+    depth: &DepthMap,
+    k: &Intrinsics,
+    gt: &Mask,
+    cfg: &DetectConfig,
+) -> f64 {
+    detect_boxes(Some(rgb), depth, k, cfg)
+        .unwrap()
+        .iter()
+        .map(|d| d.mask.iou(gt))
+        .fold(0.0, f64::max)
 }
 
 #[test]
@@ -1590,13 +1599,7 @@ fn a_pole_standing_before_a_long_box_does_not_cut_its_detection_in_two() {
         (mid..w).filter(|&u| column_has(u)).count(),
     );
     assert!(a > 50 && b > 50, "both pieces in view: {a} and {b} columns");
-    let best = |cfg: &DetectConfig| {
-        detect_boxes(Some(&rgb), &depth, &k(), cfg)
-            .unwrap()
-            .iter()
-            .map(|d| d.mask.iou(&gt))
-            .fold(0.0, f64::max)
-    };
+    let best = |cfg: &DetectConfig| best_iou(&rgb, &depth, &k(), &gt, cfg);
     let joined = best(&DetectConfig::default());
     assert!(joined > 0.85, "best mask IoU {joined}");
     let apart = best(&DetectConfig {
