@@ -12,7 +12,9 @@
 //! kind (0 detection, 1 the detector's alternative, 2 union of two detections, 3 and 4 a
 //! repeat reading's split and extension), mask pixels, depth penalty, observed axes, best 3D
 //! IoU with a counted ground truth and with an ignored one, that ground truth's index, sizes
-//! (mm, sorted), every ground truth overlapped by IoU > 0.3 as `k:iou` (`i` before ignored ones)).
+//! (mm, sorted), the largest share of its volume inside a higher-scored estimate of the
+//! frame, how many of the frame's other estimates lie at least 60 % inside it, every ground
+//! truth overlapped by IoU > 0.3 as `k:iou` (`i` before ignored ones)).
 //! The estimates are those of `anybox bench`'s detection rows (`runner::run_detected_frame`):
 //! the detections, the unions and the repeat readings.
 
@@ -51,7 +53,7 @@ fn main() {
     }
     let est_cfg = cfg.for_detected_masks();
     let mut csv = String::from(
-        "set,frame,score,det_score,est_score,faces,kind,px,depth_penalty,observed,iou,iou_ignored,gt,size_min_mm,size_mid_mm,size_max_mm,overlaps\n",
+        "set,frame,score,det_score,est_score,faces,kind,px,depth_penalty,observed,iou,iou_ignored,gt,size_min_mm,size_mid_mm,size_max_mm,pin_hi,contains,overlaps\n",
     );
     println!("set | AP@0.5 | ranked by true IoU | clear FPs dropped");
     for set in detection_sets(seed, frames) {
@@ -128,7 +130,32 @@ fn main() {
                     ));
                 }
             }
-            for (pose, score, det_score, est_score, faces, kind, px, dp, obs) in rows {
+            // Interpenetration with the frame's other estimates: the largest share of this
+            // one's volume inside a higher-scored one, and how many others lie at least 60 %
+            // inside this one.
+            let inter: Vec<(f64, usize)> = rows
+                .iter()
+                .enumerate()
+                .map(|(a, ra)| {
+                    let (mut pin_hi, mut contains) = (0.0f64, 0usize);
+                    for (b, rb) in rows.iter().enumerate() {
+                        if a == b {
+                            continue;
+                        }
+                        let vi = anybox::geom::iou::intersection_volume_mm3(&ra.0, &rb.0);
+                        if rb.1 > ra.1 {
+                            pin_hi = pin_hi.max(vi / ra.0.volume_mm3());
+                        }
+                        if vi >= 0.6 * rb.0.volume_mm3() {
+                            contains += 1;
+                        }
+                    }
+                    (pin_hi, contains)
+                })
+                .collect();
+            for ((pose, score, det_score, est_score, faces, kind, px, dp, obs), (pin_hi, contains)) in
+                rows.into_iter().zip(inter)
+            {
                 // Best 3D IoU with a counted ground truth (visible fraction ≥ 0.5) and with
                 // an ignored one.
                 let (mut best, mut best_ign, mut best_k) = (0.0f64, 0.0f64, None);
@@ -150,7 +177,7 @@ fn main() {
                 let mut sz = [pose.size_mm.x, pose.size_mm.y, pose.size_mm.z];
                 sz.sort_by(f64::total_cmp);
                 csv += &format!(
-                    "{},{fi},{score:.5},{det_score:.5},{est_score:.5},{faces},{kind},{px},{dp:.4},{obs},{best:.3},{best_ign:.3},{},{:.0},{:.0},{:.0},{}\n",
+                    "{},{fi},{score:.5},{det_score:.5},{est_score:.5},{faces},{kind},{px},{dp:.4},{obs},{best:.3},{best_ign:.3},{},{:.0},{:.0},{:.0},{pin_hi:.3},{contains},{}\n",
                     set.name.replace(',', ""),
                     best_k.map_or(-1, |k| k as i64),
                     sz[0],
