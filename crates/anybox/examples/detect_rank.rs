@@ -153,8 +153,10 @@ fn main() {
                     (pin_hi, contains)
                 })
                 .collect();
-            for ((pose, score, det_score, est_score, faces, kind, px, dp, obs), (pin_hi, contains)) in
-                rows.into_iter().zip(inter)
+            for (
+                (pose, score, det_score, est_score, faces, kind, px, dp, obs),
+                (pin_hi, contains),
+            ) in rows.into_iter().zip(inter)
             {
                 // Best 3D IoU with a counted ground truth (visible fraction ≥ 0.5) and with
                 // an ignored one.

@@ -359,6 +359,9 @@ pub fn estimate_frame_with_alternatives(
                 let c = &cfg.context;
                 for &a in &moved {
                     st.sources[a] = HiddenSource::Neighbour;
+                    if c.score_doubt && c.doubt_support > 0.0 {
+                        st.doubt = (st.doubt * c.doubt_neighbour / c.doubt_support).min(1.0);
+                    }
                 }
                 for a in 0..3 {
                     if st.sources[a] == HiddenSource::Fallback {
