@@ -625,6 +625,16 @@ pub(crate) fn bridge_tape(
                 if dc.sqrt() > cfg.tape_colour_delta {
                     continue;
                 }
+                // Tape and bands stand out from the face they cross; a strip of the halves'
+                // own colour is a piece of the surface that seam lines cut off, e.g. the
+                // halves of two rows of cartons either side of the joint between them.
+                let contrast: f64 = (0..3)
+                    .map(|c| (rt.colour[c] - 0.5 * (ra.colour[c] + rb.colour[c])).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                if contrast < cfg.tape_min_contrast {
+                    continue;
+                }
                 let (a0, a1) = range(a, &axis);
                 let (b0, b1) = range(b, &axis);
                 let overlap = a1.min(b1) - a0.max(b0);
