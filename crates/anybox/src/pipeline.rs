@@ -344,12 +344,11 @@ pub fn estimate_frame_with_alternatives(
         for (i, r) in redone {
             if let (Ok(s), Some(Ok(st))) = (r, stages.get_mut(i)) {
                 // Support-given axes whose extent the layer changed.
+                let asked = work.iter().find(|(j, _)| *j == i).map(|(_, size)| *size);
                 let moved: Vec<usize> = (0..3)
                     .filter(|&a| {
                         st.sources[a] == HiddenSource::Support
-                            && work.iter().any(|(j, size)| {
-                                *j == i && (size[a] - st.pose.size_mm[a]).abs() > 1e-9
-                            })
+                            && asked.is_some_and(|size| (size[a] - st.pose.size_mm[a]).abs() > 1e-9)
                     })
                     .collect();
                 st.pose = s.pose;
