@@ -16,7 +16,8 @@
 //! frame, how many of the frame's other estimates lie at least 60 % inside it, every ground
 //! truth overlapped by IoU > 0.3 as `k:iou` (`i` before ignored ones)).
 //! The estimates are those of `anybox bench`'s detection rows (`runner::run_detected_frame`):
-//! the detections, the unions and the repeat readings.
+//! the detections and their alternative readings (`pipeline::alternative_readings`: the
+//! unions and the repeat readings).
 
 use anybox::bench::detection_sets;
 use anybox::config::Config;
@@ -103,15 +104,12 @@ fn main() {
                 .filter(|r| r.5 == 0)
                 .map(|r| (r.0, r.1))
                 .collect();
-            let dcfg = &cfg.detect;
-            let unions: Vec<_> = pipeline::tiled_unions(&scored, dcfg)
-                .into_iter()
-                .chain(pipeline::gap_unions(&scored, &f.depth, &f.intrinsics, dcfg))
-                .collect();
-            for u in unions {
+            let readings =
+                pipeline::alternative_readings(&scored, &f.depth, &f.intrinsics, &cfg.detect);
+            for u in readings.unions {
                 rows.push((u.pose, u.score, f64::NAN, f64::NAN, '?', 2, 0, f64::NAN, 0));
             }
-            for rd in pipeline::repeat_readings(&scored, dcfg) {
+            for rd in readings.repeats {
                 let kind = match rd.kind {
                     pipeline::RepeatKind::Split => 3,
                     pipeline::RepeatKind::Extend => 4,

@@ -715,6 +715,35 @@ pub fn repeat_readings(
     out
 }
 
+/// Every alternative reading that a frame's estimates from detected masks get
+/// ([`alternative_readings`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct AlternativeReadings {
+    /// The [`tiled_unions`], then the [`gap_unions`].
+    pub unions: Vec<TiledUnion>,
+    /// The [`repeat_readings`].
+    pub repeats: Vec<RepeatReading>,
+}
+
+/// The alternative readings of a frame's estimates from detected masks (`boxes`: pose and
+/// score of each; the detector's own alternatives left out): unions of pairs that tile one
+/// cuboid ([`tiled_unions`]) or make one across a hidden gap ([`gap_unions`]), and readings
+/// by another estimate's size ([`repeat_readings`]). What `--masks detect` reports
+/// (`runner::run_detected_frame`) and the bench's detection rows score.
+pub fn alternative_readings(
+    boxes: &[(OrientedBox, f64)],
+    depth: &anybox_io::DepthMap,
+    intrinsics: &anybox_geom::Intrinsics,
+    cfg: &crate::detect::DetectConfig,
+) -> AlternativeReadings {
+    let mut unions = tiled_unions(boxes, cfg);
+    unions.extend(gap_unions(boxes, depth, intrinsics, cfg));
+    AlternativeReadings {
+        unions,
+        repeats: repeat_readings(boxes, cfg),
+    }
+}
+
 /// How one box repeats another's size ([`repeat_of`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Repeat {

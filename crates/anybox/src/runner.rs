@@ -140,7 +140,8 @@ pub fn run_frame(
 
 /// One frame with the built-in detector (`--masks detect`, dataset and single-frame mode;
 /// records carry scene and image id 0): detection, the
-/// estimator on every detection ([`Config::for_detected_masks`]), then the unions of split
+/// estimator on every detection ([`Config::for_detected_masks`]), then its alternative
+/// readings ([`crate::pipeline::alternative_readings`]): the unions of split
 /// cartons ([`crate::pipeline::tiled_unions`], and [`crate::pipeline::gap_unions`] across a
 /// hidden gap), and the readings of an estimate by another's size
 /// ([`crate::pipeline::repeat_readings`]: the copies of a carton that a merged estimate
@@ -169,15 +170,9 @@ pub fn run_detected_frame(
     let name = |i: usize| out.estimates[i].extra.get("mask").cloned();
     let time = out.estimates.first().map_or(0.0, |r| r.time);
     let mut alts = Vec::new();
-    let unions = crate::pipeline::tiled_unions(&scored, &config.detect)
-        .into_iter()
-        .chain(crate::pipeline::gap_unions(
-            &scored,
-            depth,
-            intrinsics,
-            &config.detect,
-        ));
-    for u in unions {
+    let readings =
+        crate::pipeline::alternative_readings(&scored, depth, intrinsics, &config.detect);
+    for u in readings.unions {
         let [a, b] = u.parts.map(|k| idx[k]);
         let parts = serde_json::json!([name(a), name(b)]);
         alts.push(alternative_record(
@@ -187,7 +182,7 @@ pub fn run_detected_frame(
             [("parts", parts)],
         ));
     }
-    for rd in crate::pipeline::repeat_readings(&scored, &config.detect) {
+    for rd in readings.repeats {
         let key = match rd.kind {
             crate::pipeline::RepeatKind::Split => "split_of",
             crate::pipeline::RepeatKind::Extend => "extended_from",
