@@ -614,10 +614,7 @@ fn touching_plain_boxes_are_not_taken_for_halves() {
     let best = |cfg: &DetectConfig| -> Vec<f64> {
         let dets = detect_boxes(Some(&rgb), &depth, &k(), cfg).unwrap();
         (0..2)
-            .map(|k| {
-                let gt = mask_of(&owner, k as u8);
-                dets.iter().map(|d| d.mask.iou(&gt)).fold(0.0, f64::max)
-            })
+            .map(|k| best_iou_among(&dets, &mask_of(&owner, k as u8)))
             .collect()
     };
     let found = best(&DetectConfig::default());
@@ -652,10 +649,7 @@ fn flap_seam_halves_pair_into_whole_tops_seen_from_above() {
     let kk = k();
     let best = |dets: &[Detection]| -> Vec<f64> {
         (0..3)
-            .map(|k| {
-                let gt = mask_of(&owner, k as u8);
-                dets.iter().map(|d| d.mask.iou(&gt)).fold(0.0, f64::max)
-            })
+            .map(|k| best_iou_among(dets, &mask_of(&owner, k as u8)))
             .collect()
     };
     let dets = detect_boxes(Some(&rgb), &depth, &kk, &DetectConfig::default()).unwrap();
@@ -694,10 +688,7 @@ fn touching_boxes_of_different_heights_come_out_separately() {
     assert!(gts.iter().all(|g| g.count() > 3000), "both boxes in view");
     let cfg = DetectConfig::default();
     let dets = detect_boxes(Some(&rgb), &depth, &k(), &cfg).unwrap();
-    let best: Vec<f64> = gts
-        .iter()
-        .map(|g| dets.iter().map(|d| d.mask.iou(g)).fold(0.0, f64::max))
-        .collect();
+    let best: Vec<f64> = gts.iter().map(|g| best_iou_among(&dets, g)).collect();
     assert!(
         best.iter().all(|&b| b > 0.8),
         "each box its own detection: best mask IoUs {best:?} ({} detections)",
@@ -876,11 +867,12 @@ fn best_iou(
     gt: &Mask,
     cfg: &DetectConfig,
 ) -> f64 {
-    detect_boxes(Some(rgb), depth, k, cfg)
-        .unwrap()
-        .iter()
-        .map(|d| d.mask.iou(gt))
-        .fold(0.0, f64::max)
+    best_iou_among(&detect_boxes(Some(rgb), depth, k, cfg).unwrap(), gt)
+}
+
+/// The best mask IoU of any of `dets` with `gt`.
+fn best_iou_among(dets: &[Detection], gt: &Mask) -> f64 {
+    dets.iter().map(|d| d.mask.iou(gt)).fold(0.0, f64::max)
 }
 
 #[test]
@@ -911,10 +903,7 @@ fn a_strip_of_the_halves_own_colour_is_no_tape_to_bridge() {
     assert_eq!(layer.len(), 12, "the generator's layer changed");
     let found = |cfg: &DetectConfig| -> Vec<f64> {
         let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
-        layer
-            .iter()
-            .map(|gt| dets.iter().map(|d| d.mask.iou(gt)).fold(0.0, f64::max))
-            .collect()
+        layer.iter().map(|gt| best_iou_among(&dets, gt)).collect()
     };
     let with = found(&DetectConfig::default());
     assert!(with.iter().all(|&x| x > 0.85), "best mask IoUs {with:?}");
@@ -1026,11 +1015,7 @@ fn best_mask_ious(v: &anybox_synth::SynthView, cfg: &DetectConfig) -> Vec<f64> {
     let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
     v.boxes
         .iter()
-        .map(|b| {
-            dets.iter()
-                .map(|d| d.mask.iou(&b.mask_visib))
-                .fold(0.0, f64::max)
-        })
+        .map(|b| best_iou_among(&dets, &b.mask_visib))
         .collect()
 }
 
