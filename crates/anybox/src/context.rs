@@ -100,8 +100,9 @@ pub struct ContextConfig {
     /// 0.823 / 0.771 / 0.794, ycbv-boxes unchanged; detection rows (48 views) on pallets
     /// AP@0.5 0.551 / 0.600 / 0.485 → 0.563 / 0.605 / 0.526, the other sets unchanged.
     /// Without the score condition a detected distractor's height replaced a carton's on a
-    /// table (48-view AP@0.5 with 32 distractors 0.653 → 0.651); without `layer_max_tilt_deg` shelves lost boxes whose depth came from the back
-    /// wall (48-view shelf AP@0.5 0.525 → 0.517).
+    /// table (48-view AP@0.5 with 32 distractors 0.653 → 0.651); without `layer_max_tilt_deg`
+    /// shelves lost boxes whose depth came from the back wall (48-view shelf AP@0.5 0.525 →
+    /// 0.517).
     pub layer_before_support: bool,
     /// ... only along an axis within `layer_max_tilt_deg` of down (see `up_hint`), degrees.
     /// Default 80: a camera pitched down by φ sees a top's hidden axis at φ from the image's
@@ -540,15 +541,9 @@ pub fn share_layer_heights(
     cfg: &ContextConfig,
 ) -> Vec<Option<Vector3<f64>>> {
     let mut out = vec![None; members.len()];
-    // With no hint every axis passes (cos of 180°).
-    let down = -Vector3::from(cfg.up_hint)
-        .try_normalize(1e-9)
-        .unwrap_or_else(Vector3::zeros);
-    let cos_down = if down.norm_squared() > 0.0 {
-        cfg.layer_max_tilt_deg.to_radians().cos()
-    } else {
-        -1.0
-    };
+    // With no hint every axis passes.
+    let down = Vector3::from(cfg.up_hint).try_normalize(1e-9).map(|up| -up);
+    let cos_down = cfg.layer_max_tilt_deg.to_radians().cos();
     for (i, m) in members.iter().enumerate() {
         for a in 0..3 {
             let from_support = m.sources[a] == HiddenSource::Support;
@@ -559,7 +554,7 @@ pub fn share_layer_heights(
             let u = away_axis(&m.pose, a);
             // Layers are stacked along gravity: a box's depth behind a front face (a shelf)
             // has nothing to do with its neighbours'.
-            if from_support && u.dot(&down) < cos_down {
+            if from_support && down.is_some_and(|d| u.dot(&d) < cos_down) {
                 continue;
             }
             // The visible face of the hidden axis: centre minus half the extent towards the camera.
