@@ -57,9 +57,9 @@ pub(crate) struct Holders<'a> {
 /// What continues a candidate past an occluder.
 #[derive(Default)]
 pub(crate) struct Continuation {
-    /// Unclaimed cells.
+    /// Unclaimed cells (unsorted; a cell found along two axes appears twice).
     pub cells: Vec<u32>,
-    /// Other candidates lying there: the same box's other piece.
+    /// Other candidates lying there: the same box's other piece (in the order found).
     pub absorbed: Vec<usize>,
 }
 
@@ -120,10 +120,8 @@ pub(crate) fn continuation(
             out.absorbed.extend(found.absorbed);
         }
     }
-    out.cells.sort_unstable();
-    out.cells.dedup();
-    out.absorbed.sort_unstable();
-    out.absorbed.dedup();
+    // Two axes may find the same cells and candidates: the caller's `fill` dedups cells
+    // with the rest of the candidate's, and skips a candidate already absorbed.
     out
 }
 
