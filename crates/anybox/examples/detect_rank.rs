@@ -13,7 +13,8 @@
 //! repeat reading's split and extension), mask pixels, depth penalty, observed axes, best 3D
 //! IoU with a counted ground truth and with an ignored one, that ground truth's index, sizes
 //! (mm, sorted), the largest share of its volume inside a higher-scored estimate of the
-//! frame, how many of the frame's other estimates lie at least 60 % inside it, every ground
+//! frame, how many of the frame's other estimates lie at least 60 % inside it, its mask's
+//! pixels on the image's outermost rows and columns (0 for unions and repeats), every ground
 //! truth overlapped by IoU > 0.3 as `k:iou` (`i` before ignored ones)).
 //! The estimates are those of `anybox bench`'s detection rows (`runner::run_detected_frame`):
 //! the detections and their alternative readings (`pipeline::alternative_readings`: the
@@ -54,7 +55,7 @@ fn main() {
     }
     let est_cfg = cfg.for_detected_masks();
     let mut csv = String::from(
-        "set,frame,score,det_score,est_score,faces,kind,px,depth_penalty,observed,iou,iou_ignored,gt,size_min_mm,size_mid_mm,size_max_mm,pin_hi,contains,overlaps\n",
+        "set,frame,score,det_score,est_score,faces,kind,px,depth_penalty,observed,iou,iou_ignored,gt,size_min_mm,size_mid_mm,size_max_mm,pin_hi,contains,border,overlaps\n",
     );
     println!("set | AP@0.5 | ranked by true IoU | clear FPs dropped");
     for set in detection_sets(seed, frames) {
@@ -84,8 +85,20 @@ fn main() {
             // 2 union, 3 repeat split, 4 repeat extension (as `runner::run_detected_frame`).
             type Row = (OrientedBox, f64, f64, f64, char, u8, usize, f64, usize);
             let mut rows: Vec<Row> = Vec::new();
+            // Mask pixels on the image's outermost rows and columns, per row (0 for readings
+            // that have no mask of their own).
+            let mut border: Vec<usize> = Vec::new();
             for (m, r) in masks.iter().zip(results) {
                 let Ok(e) = r else { continue };
+                let (w, h) = (m.mask.width, m.mask.height);
+                border.push(
+                    (0..h)
+                        .flat_map(|v| (0..w).map(move |u| (u, v)))
+                        .filter(|&(u, v)| {
+                            (u == 0 || v == 0 || u + 1 == w || v + 1 == h) && m.mask.get(u, v)
+                        })
+                        .count(),
+                );
                 let faces = m.name.split('(').nth(1).and_then(|x| x.chars().next());
                 rows.push((
                     e.pose,
@@ -151,10 +164,11 @@ fn main() {
                     (pin_hi, contains)
                 })
                 .collect();
+            border.resize(rows.len(), 0);
             for (
-                (pose, score, det_score, est_score, faces, kind, px, dp, obs),
-                (pin_hi, contains),
-            ) in rows.into_iter().zip(inter)
+                ((pose, score, det_score, est_score, faces, kind, px, dp, obs), (pin_hi, contains)),
+                border,
+            ) in rows.into_iter().zip(inter).zip(border)
             {
                 // Best 3D IoU with a counted ground truth (visible fraction ≥ 0.5) and with
                 // an ignored one.
@@ -177,7 +191,7 @@ fn main() {
                 let mut sz = [pose.size_mm.x, pose.size_mm.y, pose.size_mm.z];
                 sz.sort_by(f64::total_cmp);
                 csv += &format!(
-                    "{},{fi},{score:.5},{det_score:.5},{est_score:.5},{faces},{kind},{px},{dp:.4},{obs},{best:.3},{best_ign:.3},{},{:.0},{:.0},{:.0},{pin_hi:.3},{contains},{}\n",
+                    "{},{fi},{score:.5},{det_score:.5},{est_score:.5},{faces},{kind},{px},{dp:.4},{obs},{best:.3},{best_ign:.3},{},{:.0},{:.0},{:.0},{pin_hi:.3},{contains},{border},{}\n",
                     set.name.replace(',', ""),
                     best_k.map_or(-1, |k| k as i64),
                     sz[0],
