@@ -344,9 +344,9 @@ pub struct Support {
     /// [`ContextConfig::min_hidden_mm`]): high where the box sits among flush neighbours (a layer
     /// of a pallet), whose space behind is full of boxes rather than open to the support.
     pub coplanar_fraction: f64,
-    /// Sides of the mask's bounding box (left, right, above, below; 0..=4) beyond which the
-    /// support shows, each with at least 5 % of its points: a table all around a flat box
-    /// shows on three or four, a lower neighbour's top on one or two.
+    /// How many of 8 equal sectors around the centre of the mask's bounding box (0..=8) hold
+    /// at least 3 % of the support's points (and 3): a table all around a flat box fills
+    /// most, a lower neighbour's top beside a carton only those on its side.
     pub sides: u8,
     /// Share of the ring's points within the searched offsets that this support holds.
     pub ring_share: f64,
