@@ -92,8 +92,8 @@ pub struct ContextConfig {
     /// Fallback hidden extent as a multiple of the smaller observed dimension.
     pub fallback_ratio: f64,
     /// Along an axis pointing down (within `support_down_max_tilt_deg` of down, see
-    /// `up_hint`), a support that shows all around the mask (`support_down_min_sides`) is
-    /// accepted down to this multiple of the smaller observed dimension instead of
+    /// `up_hint`), a support that shows all around the mask (`support_down_min_sides`,
+    /// `support_down_min_share`) is accepted down to this multiple of the smaller observed dimension instead of
     /// `support_ratio[0]`: a flat carton lying on a table is thinner than 0.4 of its sides,
     /// and the table all around it is what it rests on. Default 0.1. With ground-truth masks
     /// (`size_diag`, seeds 2026 / 7 / 11, 160 boxes each) three boxes of seed 7 went from 3D
@@ -105,11 +105,11 @@ pub struct ContextConfig {
     /// boxes above 0.5).
     pub support_down_max_tilt_deg: f64,
     /// ... when the support's points fill at least this many of 8 equal sectors around the
-    /// mask's bounding-box centre (each with 3 % of them): a table all around a flat box fills
-    /// most, the lower top of a neighbour beside a carton those on its side. Default 6. Without it (any
-    /// support), a carton top on a pallet took a lower neighbour's top 30–60 mm down as its
-    /// support, and the 48-view detection rows on pallets lost AP@0.5 (seeds 2026 / 7 / 11:
-    /// 0.635 / 0.531 / 0.595 → 0.627 / 0.531 / 0.585); 5 lost a shelf box, 7 a pallet box.
+    /// mask's bounding-box centre (each with 3 % of them; [`Support::sides`]). Default 6.
+    /// Without it (any support), a carton top on a pallet took a lower neighbour's top
+    /// 30–60 mm down as its support, and the 48-view detection rows on pallets lost AP@0.5
+    /// (seeds 2026 / 7 / 11: 0.635 / 0.531 / 0.595 → 0.627 / 0.531 / 0.585); 5 lost a shelf
+    /// box, 7 a pallet box (`size_diag`).
     pub support_down_min_sides: u8,
     /// ... and when it holds at least this share of the ring's points within the searched
     /// offsets (the table around a flat box holds most of them). Default 0.5. Without it, a
