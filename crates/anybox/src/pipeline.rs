@@ -1485,13 +1485,7 @@ mod tests {
             ..Default::default()
         };
         let v = generate_view(&scfg, 10, 0);
-        let seen: Vec<usize> = (0..v.boxes.len())
-            .filter(|&i| v.boxes[i].visib_fract >= 0.5)
-            .collect();
-        let masks: Vec<Mask> = seen
-            .iter()
-            .map(|&i| v.boxes[i].mask_visib.clone())
-            .collect();
+        let (seen, masks) = half_seen_masks(&v);
         let run = |cfg: &Config| -> Vec<f64> {
             let est = estimate_frame(&v.depth, &v.intrinsics, &masks, cfg);
             [8, 10]
@@ -1526,6 +1520,19 @@ mod tests {
         );
     }
 
+    /// A generated view's boxes at least half visible (the bench's rule), with their
+    /// ground-truth visible masks.
+    fn half_seen_masks(v: &anybox_synth::SynthView) -> (Vec<usize>, Vec<Mask>) {
+        let seen: Vec<usize> = (0..v.boxes.len())
+            .filter(|&i| v.boxes[i].visib_fract >= 0.5)
+            .collect();
+        let masks = seen
+            .iter()
+            .map(|&i| v.boxes[i].mask_visib.clone())
+            .collect();
+        (seen, masks)
+    }
+
     #[test]
     fn flat_boxes_take_the_table_around_them_as_support() {
         use anybox_synth::{generate_view, Layout, NoiseModel, SynthConfig};
@@ -1548,13 +1555,7 @@ mod tests {
                 sorted[0] < 60.0 && sorted[1] > 200.0,
                 "the generator's box changed: {sorted:?}"
             );
-            let seen: Vec<usize> = (0..v.boxes.len())
-                .filter(|&i| v.boxes[i].visib_fract >= 0.5)
-                .collect();
-            let masks: Vec<Mask> = seen
-                .iter()
-                .map(|&i| v.boxes[i].mask_visib.clone())
-                .collect();
+            let (seen, masks) = half_seen_masks(&v);
             let est = estimate_frame(&v.depth, &v.intrinsics, &masks, cfg);
             let k = seen.iter().position(|&i| i == 0).expect("box 0 is seen");
             iou(&est[k].as_ref().expect("estimated").pose, &v.boxes[0].pose)
