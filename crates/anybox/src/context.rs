@@ -140,9 +140,10 @@ pub struct ContextConfig {
     /// 0.559 / 0.546 / 0.461).
     pub layer_max_tilt_deg: f64,
     /// Which way is up, roughly, in camera coordinates (x right, y down, z forward; any
-    /// length; `[0, 0, 0]`: no hint, every axis passes `layer_max_tilt_deg`). Default
-    /// `[0, −1, 0]`, the image's up: a camera pitched down by φ sees true down at φ from it.
-    /// A robot that knows gravity in its camera frame can pass it here.
+    /// length; `[0, 0, 0]`: no hint, every axis passes `layer_max_tilt_deg` and none
+    /// `support_down_max_tilt_deg`). Default `[0, −1, 0]`, the image's up: a camera pitched
+    /// down by φ sees true down at φ from it. A robot that knows gravity in its camera frame
+    /// can pass it here.
     pub up_hint: [f64; 3],
     /// Lower the reported score where the size is in doubt (see [`doubt_factor`]), so that
     /// score-ranked AP puts measured boxes before guessed ones.
@@ -585,10 +586,13 @@ pub fn infer_hidden(
 /// [`ContextConfig::support_down_max_tilt_deg`] of down ([`ContextConfig::up_hint`]; false with
 /// no hint).
 fn down_axis(pose: &OrientedBox, a: usize, cfg: &ContextConfig) -> bool {
-    let Some(up) = Vector3::from(cfg.up_hint).try_normalize(1e-9) else {
-        return false;
-    };
-    away_axis(pose, a).dot(&-up) >= cfg.support_down_max_tilt_deg.to_radians().cos()
+    let cos_max = cfg.support_down_max_tilt_deg.to_radians().cos();
+    down_hint(cfg).is_some_and(|d| away_axis(pose, a).dot(&d) >= cos_max)
+}
+
+/// Down from [`ContextConfig::up_hint`] (unit; `None` with no hint).
+fn down_hint(cfg: &ContextConfig) -> Option<Vector3<f64>> {
+    Vector3::from(cfg.up_hint).try_normalize(1e-9).map(|up| -up)
 }
 
 /// One instance's state for the cross-instance pass.
@@ -618,7 +622,7 @@ pub fn share_layer_heights(
 ) -> Vec<Option<Vector3<f64>>> {
     let mut out = vec![None; members.len()];
     // With no hint every axis passes.
-    let down = Vector3::from(cfg.up_hint).try_normalize(1e-9).map(|up| -up);
+    let down = down_hint(cfg);
     let cos_down = cfg.layer_max_tilt_deg.to_radians().cos();
     for (i, m) in members.iter().enumerate() {
         for a in 0..3 {

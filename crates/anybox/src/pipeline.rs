@@ -331,24 +331,26 @@ pub fn estimate_frame_with_alternatives(
             .zip(updates)
             .filter_map(|(&i, u)| u.map(|s| (i, s)))
             .collect();
-        let redone: Vec<(usize, Result<PoseSample, EstimateError>)> = work
+        // (member, the size the layer asked for, the estimate at that size)
+        type Redone = (usize, Vector3<f64>, Result<PoseSample, EstimateError>);
+        let redone: Vec<Redone> = work
             .par_iter()
-            .filter_map(|(i, size)| {
-                let st = stages[*i].as_ref().ok()?;
+            .filter_map(|&(i, size)| {
+                let st = stages[i].as_ref().ok()?;
                 Some((
-                    *i,
-                    sample_of(&st.obs, depth, intrinsics, size, Some(&st.pose), cfg),
+                    i,
+                    size,
+                    sample_of(&st.obs, depth, intrinsics, &size, Some(&st.pose), cfg),
                 ))
             })
             .collect();
-        for (i, r) in redone {
+        for (i, asked, r) in redone {
             if let (Ok(s), Some(Ok(st))) = (r, stages.get_mut(i)) {
                 // Support-given axes whose extent the layer changed.
-                let asked = work.iter().find(|(j, _)| *j == i).map(|(_, size)| *size);
                 let moved: Vec<usize> = (0..3)
                     .filter(|&a| {
                         st.sources[a] == HiddenSource::Support
-                            && asked.is_some_and(|size| (size[a] - st.pose.size_mm[a]).abs() > 1e-9)
+                            && (asked[a] - st.pose.size_mm[a]).abs() > 1e-9
                     })
                     .collect();
                 st.pose = s.pose;
