@@ -114,9 +114,10 @@ pub struct ContextConfig {
     /// ... and when it holds at least this share of the ring's points within the searched
     /// offsets (the table around a flat box holds most of them). Default 0.5. Without it, a
     /// 152 × 120 × 67 mm box on a table (`detect_dev` seed 2026, table view 22, ground-truth
-    /// mask) took a plane 26 mm down holding 10 % of the ring's points, mixed pixels along its
-    /// edges, for its support (3D IoU 0.56 → 0.37); the table 67 mm down held 87 %. 0.3 and
-    /// 0.7 gave the same `size_diag` results as 0.5.
+    /// mask, `EST3D=1` with this at 0) took a plane 26 mm down, mixed pixels along its edges,
+    /// for its support (3D IoU 0.56 → 0.37; a temporary debug print gave that plane 10 % of
+    /// the ring's points and the table 67 mm down 87 %). 0.3 and 0.7 gave the same
+    /// `size_diag` results as 0.5.
     pub support_down_min_share: f64,
     /// Visible faces within this distance along their common normal form one layer, mm.
     pub layer_tol_mm: f64,
