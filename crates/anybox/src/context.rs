@@ -101,15 +101,17 @@ pub struct ContextConfig {
     /// condition, 0 had three pallet boxes fewer above 0.5 than 0.1.
     pub support_down_min_ratio: f64,
     /// ... along an axis within this angle of down, degrees. Default 80, as
-    /// `layer_max_tilt_deg` (60 lost the two table boxes of the three above; 89 lost two shelf
-    /// boxes above 0.5).
+    /// `layer_max_tilt_deg` (`size_diag`: 60 loses the two table boxes of the three above; 89
+    /// gives the same results, but lost two shelf boxes above 0.5 before the sides and share
+    /// conditions).
     pub support_down_max_tilt_deg: f64,
     /// ... when the support's points fill at least this many of 8 equal sectors around the
     /// mask's bounding-box centre (each with 3 % of them; [`Support::sides`]). Default 6.
     /// Without it (any support), a carton top on a pallet took a lower neighbour's top
     /// 30–60 mm down as its support, and the 48-view detection rows on pallets lost AP@0.5
-    /// (seeds 2026 / 7 / 11: 0.635 / 0.531 / 0.595 → 0.627 / 0.531 / 0.585); 5 lost a shelf
-    /// box, 7 a pallet box (`size_diag`).
+    /// (seeds 2026 / 7 / 11: 0.635 / 0.531 / 0.595 → 0.627 / 0.531 / 0.585). `size_diag`: 7
+    /// loses a pallet box; 5 gives the same results (before the share condition it lost a
+    /// shelf box).
     pub support_down_min_sides: u8,
     /// ... and when it holds at least this share of the ring's points within the searched
     /// offsets (the table around a flat box holds most of them). Default 0.5. Without it, a
