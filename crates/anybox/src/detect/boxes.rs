@@ -39,6 +39,8 @@ pub(crate) struct Candidate {
     pub score: f64,
     /// Faces grouped.
     pub n_faces: u8,
+    /// The cuboid fitted to the faces (camera frame, mm), before the fill.
+    pub bx: OrientedBox,
 }
 
 /// A grid point or normal as `f64`.
@@ -844,6 +846,7 @@ pub(crate) fn fill(
             strip,
             score,
             n_faces: raw.n_faces,
+            bx: raw.bx,
         }));
     }
     result.into_iter().flatten().collect()
