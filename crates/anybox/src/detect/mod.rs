@@ -463,8 +463,8 @@ pub struct DetectConfig {
     /// face's colour next to the mask; up to this fraction of the mask's pixels, the
     /// detections growing together (each pixel to the first to reach it). Needs RGB. 0
     /// disables. Default 0.5 (bench, 48 views, seeds 2026 / 7 / 11, mean of the 15 rows
-    /// against 0: AP@0.5 0.6302 → 0.6353, AP@0.7 0.4764 → 0.4858, AP@0.25 0.7957 → 0.7930;
-    /// shelves +0.015 / +0.026 / −0.010, tables −0.003 to +0.012, pallets within ±0.004; see
+    /// against 0: AP@0.5 0.6302 → 0.6351, AP@0.7 0.4764 → 0.4858, AP@0.25 0.7957 → 0.7927;
+    /// shelves +0.015 / +0.027 / −0.010, tables −0.003 to +0.012, pallets within ±0.004; see
     /// the README for the variants measured).
     pub hole_grow_max_fraction: f64,
     /// See `hole_grow_max_fraction`: each connected piece grown must hold at least this
@@ -825,7 +825,7 @@ pub fn detect_boxes(
     let one_face_min = cfg.one_face_min_pixels as f64 * area;
     let half = cfg.evidence_half_pixels.max(0.0) * area;
     // Frame-sized masks, built in parallel (the order is kept).
-    let mut out: Vec<(Detection, OrientedBox)> = cands
+    let mut out: Vec<(Detection, Shape)> = cands
         .into_par_iter()
         .map(|c| (c, false))
         .chain(alt_cands.into_par_iter().map(|c| (c, true)))
@@ -850,14 +850,29 @@ pub fn detect_boxes(
                 n_faces: c.n_faces,
                 alternative,
             };
-            Some((d, c.bx))
+            // The mask lies within its cells' pixels (the opening only removes).
+            let (mut u0, mut v0, mut u1, mut v1) = (usize::MAX, usize::MAX, 0, 0);
+            for &i in c.cells.iter().chain(&c.strip) {
+                let (gu, gv) = (i as usize % g.w, i as usize / g.w);
+                (u0, v0, u1, v1) = (u0.min(gu), v0.min(gv), u1.max(gu), v1.max(gv));
+            }
+            let bounds = (u0 <= u1).then(|| {
+                let s = g.step;
+                (
+                    u0 * s,
+                    v0 * s,
+                    ((u1 + 1) * s).min(fw) - 1,
+                    ((v1 + 1) * s).min(fh) - 1,
+                )
+            });
+            Some((d, Shape { bx: c.bx, bounds }))
         })
         .collect();
     // Best first (stable: equal scores keep the selection order).
     out.sort_by(|a, b| b.0.score.total_cmp(&a.0.score));
-    let (mut out, cuboids): (Vec<Detection>, Vec<OrientedBox>) = out.into_iter().unzip();
+    let (mut out, shapes): (Vec<Detection>, Vec<Shape>) = out.into_iter().unzip();
     if let Some(rgb) = rgb {
-        grow_into_holes(&mut out, &cuboids, &g, rgb, depth, intrinsics, cfg);
+        grow_into_holes(&mut out, &shapes, &g, rgb, depth, intrinsics, cfg);
     }
     Ok(out)
 }
@@ -868,7 +883,7 @@ pub fn detect_boxes(
 /// on its own into what no primary detection holds.
 fn grow_into_holes(
     dets: &mut [Detection],
-    cuboids: &[OrientedBox],
+    shapes: &[Shape],
     g: &grid::Grid,
     rgb: &RgbImage,
     depth: &DepthMap,
@@ -880,8 +895,8 @@ fn grow_into_holes(
     }
     let (w, h) = (depth.width as usize, depth.height as usize);
     let mut held = vec![false; w * h];
-    for d in dets.iter().filter(|d| !d.alternative) {
-        or_into(&mut held, &d.mask);
+    for (d, sh) in dets.iter().zip(shapes).filter(|(d, _)| !d.alternative) {
+        or_into(&mut held, &d.mask, sh.bounds);
     }
     let primary: Vec<usize> = (0..dets.len()).filter(|&k| !dets[k].alternative).collect();
     let ctx = Grow {
@@ -894,9 +909,9 @@ fn grow_into_holes(
         w,
         h,
     };
-    let masks: Vec<(&Mask, &OrientedBox)> = primary
+    let masks: Vec<(&Mask, &Shape)> = primary
         .iter()
-        .map(|&k| (&dets[k].mask, &cuboids[k]))
+        .map(|&k| (&dets[k].mask, &shapes[k]))
         .collect();
     let added = ctx.grow(&masks);
     for (&k, px) in primary.iter().zip(added) {
@@ -907,7 +922,7 @@ fn grow_into_holes(
     let alts: Vec<usize> = (0..dets.len()).filter(|&k| dets[k].alternative).collect();
     let grown: Vec<Vec<usize>> = alts
         .par_iter()
-        .map(|&k| ctx.grow(&[(&dets[k].mask, &cuboids[k])]).swap_remove(0))
+        .map(|&k| ctx.grow(&[(&dets[k].mask, &shapes[k])]).swap_remove(0))
         .collect();
     for (&k, px) in alts.iter().zip(grown) {
         for i in px {
@@ -916,12 +931,19 @@ fn grow_into_holes(
     }
 }
 
-/// Sets the pixels of `m` in `acc` (frame-sized), over `m`'s bounding box only.
-fn or_into(acc: &mut [bool], m: &Mask) {
+/// A detection's cuboid and a pixel box holding its mask (`u0, v0, u1, v1`, inclusive;
+/// `None`: empty), for [`grow_into_holes`].
+struct Shape {
+    bx: OrientedBox,
+    bounds: Option<(usize, usize, usize, usize)>,
+}
+
+/// Sets the pixels of `m` in `acc` (frame-sized), within `bounds` (which hold `m`).
+fn or_into(acc: &mut [bool], m: &Mask, bounds: Option<(usize, usize, usize, usize)>) {
     let w = m.width as usize;
-    if let Some((u0, v0, u1, v1)) = m.bbox() {
-        for v in v0 as usize..=v1 as usize {
-            let row = v * w + u0 as usize..=v * w + u1 as usize;
+    if let Some((u0, v0, u1, v1)) = bounds {
+        for v in v0..=v1 {
+            let row = v * w + u0..=v * w + u1;
             for (a, &x) in acc[row.clone()].iter_mut().zip(&m.data[row]) {
                 *a |= x;
             }
@@ -1064,26 +1086,28 @@ impl Grow<'_> {
 
     /// Grows `masks` together (breadth first: each pixel to the first mask to reach it);
     /// returns the pixels each takes on.
-    fn grow(&self, masks: &[(&Mask, &OrientedBox)]) -> Vec<Vec<usize>> {
+    fn grow(&self, masks: &[(&Mask, &Shape)]) -> Vec<Vec<usize>> {
         let (w, h, cfg) = (self.w, self.h, self.cfg);
         let dist = |a: &[f64; 3], b: &[f64; 3]| -> f64 {
             ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
         };
         let mut taken = self.held.to_vec();
-        for (m, _) in masks {
-            or_into(&mut taken, m);
+        for (m, sh) in masks {
+            or_into(&mut taken, m, sh.bounds);
         }
         let mut owner = vec![u32::MAX; w * h];
+        // The last mask (+ 1) that found the pixel off its face; 0: none.
+        let mut refused = vec![0u32; w * h];
         let mut caps = Vec::with_capacity(masks.len());
         let mut sizes = Vec::with_capacity(masks.len());
         // (pixel, mask, colour and depth its growth keeps; None: a mask pixel, not yet known)
         type Item = (usize, usize, Option<FaceRef>);
         let mut queue: std::collections::VecDeque<Item> = Default::default();
-        for (k, (m, _)) in masks.iter().enumerate() {
+        for (k, (m, sh)) in masks.iter().enumerate() {
             let mut n = 0usize;
-            if let Some((u0, v0, u1, v1)) = m.bbox() {
-                for v in v0 as usize..=v1 as usize {
-                    for u in u0 as usize..=u1 as usize {
+            if let Some((u0, v0, u1, v1)) = sh.bounds {
+                for v in v0..=v1 {
+                    for u in u0..=u1 {
                         let i = v * w + u;
                         if !m.data[i] {
                             continue;
@@ -1135,24 +1159,32 @@ impl Grow<'_> {
                 if self.g.seam.get(cell).copied().unwrap_or(true) {
                     continue;
                 }
+                // The colour step first: cheap, and it turns most neighbours away.
+                let cj = self.col(j);
+                if dist(&cj, &ci) > cfg.hole_grow_step_colour {
+                    continue;
+                }
                 if keep.is_none() {
                     // One reference per 4 × 4 block of a mask's outline: neighbouring
-                    // windows nearly coincide, and each costs a few thousand pixel reads.
+                    // windows nearly coincide, and each costs a few hundred pixel reads.
                     let block = (k, i / w / 4, (i % w) / 4);
                     keep = *refs
                         .entry(block)
-                        .or_insert_with(|| self.reference(masks[k].0, masks[k].1, i));
+                        .or_insert_with(|| self.reference(masks[k].0, &masks[k].1.bx, i));
                 }
                 let Some((c_ref, plane)) = keep else {
                     break;
                 };
-                if !self.among_dropouts(j, &plane) {
+                if dist(&cj, &c_ref) > cfg.hole_grow_colour {
                     continue;
                 }
-                let cj = self.col(j);
-                if dist(&cj, &ci) > cfg.hole_grow_step_colour
-                    || dist(&cj, &c_ref) > cfg.hole_grow_colour
-                {
+                // A pixel off the face for one mask is, nearly always, for it from another
+                // side too: tried once per mask.
+                if refused[j] == k as u32 + 1 {
+                    continue;
+                }
+                if !self.among_dropouts(j, &plane) {
+                    refused[j] = k as u32 + 1;
                     continue;
                 }
                 taken[j] = true;

@@ -1728,7 +1728,11 @@ fn grow_band(band: Band, cfg: &DetectConfig) -> (usize, usize, usize) {
         n_faces: 1,
         alternative: false,
     }];
-    grow_into_holes(&mut dets, &[bx], &g, &rgb, &depth, &k(), cfg);
+    let shape = Shape {
+        bx,
+        bounds: Some((0, 0, W as usize - 1, H as usize - 1)),
+    };
+    grow_into_holes(&mut dets, &[shape], &g, &rgb, &depth, &k(), cfg);
     let (mut taken, mut holes, mut outside) = (0, 0, 0);
     for v in 0..H {
         for u in 0..W {
