@@ -93,12 +93,12 @@ pub struct ContextConfig {
     pub fallback_ratio: f64,
     /// Along an axis pointing down (within `support_down_max_tilt_deg` of down, see
     /// `up_hint`), a support that shows all around the mask (`support_down_min_sides`,
-    /// `support_down_min_share`) is accepted down to this multiple of the smaller observed dimension instead of
-    /// `support_ratio[0]`: a flat carton lying on a table is thinner than 0.4 of its sides,
-    /// and the table all around it is what it rests on. Default 0.1. With ground-truth masks
-    /// (`size_diag`, seeds 2026 / 7 / 11, 160 boxes each) three boxes of seed 7 went from 3D
-    /// IoU 0.15 / 0.24 / 0.34 to 0.91 / 0.97 / 0.88 and none got worse; without the sides
-    /// condition, 0 had three pallet boxes fewer above 0.5 than 0.1.
+    /// `support_down_min_share`) is accepted down to this multiple of the smaller observed
+    /// dimension instead of `support_ratio[0]`: a flat carton lying on a table is thinner
+    /// than 0.4 of its sides, and the table all around it is what it rests on. Default 0.1.
+    /// With ground-truth masks (`size_diag`, seeds 2026 / 7 / 11, 160 boxes each) three boxes
+    /// of seed 7 went from 3D IoU 0.15 / 0.24 / 0.34 to 0.91 / 0.97 / 0.88 and none got
+    /// worse; without the sides condition, 0 had three pallet boxes fewer above 0.5 than 0.1.
     pub support_down_min_ratio: f64,
     /// ... along an axis within this angle of down, degrees. Default 80, as
     /// `layer_max_tilt_deg` (`size_diag`: 60 loses the two table boxes of the three above; 89

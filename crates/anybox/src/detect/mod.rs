@@ -34,9 +34,9 @@
 //! surface of their grid cell; with RGB they then take in the depth dropouts next to them
 //! that continue their face (a face seen at a grazing angle,
 //! [`DetectConfig::hole_grow_max_fraction`]); output scores are the box-likeness times an
-//! evidence factor that grows with the mask's size ([`DetectConfig::evidence_half_pixels`]). A few candidates
-//! that lost a split decision come back as alternative readings, flagged and scored low
-//! ([`DetectConfig::alternatives_max`]).
+//! evidence factor that grows with the mask's size ([`DetectConfig::evidence_half_pixels`]).
+//! A few candidates that lost a split decision come back as alternative readings, flagged
+//! and scored low ([`DetectConfig::alternatives_max`]).
 //!
 //! Every threshold is a documented field of [`DetectConfig`] (`Config::detect`). The detector is
 //! deterministic: the same input and config give the same detections in the same order.
@@ -913,7 +913,7 @@ fn grow_into_holes(
         .iter()
         .map(|&k| (&dets[k].mask, &shapes[k]))
         .collect();
-    let added = ctx.grow(&masks);
+    let added = ctx.grow(&masks, held.clone());
     for (&k, px) in primary.iter().zip(added) {
         for i in px {
             dets[k].mask.data[i] = true;
@@ -922,7 +922,12 @@ fn grow_into_holes(
     let alts: Vec<usize> = (0..dets.len()).filter(|&k| dets[k].alternative).collect();
     let grown: Vec<Vec<usize>> = alts
         .par_iter()
-        .map(|&k| ctx.grow(&[(&dets[k].mask, &shapes[k])]).swap_remove(0))
+        .map(|&k| {
+            let mut taken = held.clone();
+            or_into(&mut taken, &dets[k].mask, shapes[k].bounds);
+            ctx.grow(&[(&dets[k].mask, &shapes[k])], taken)
+                .swap_remove(0)
+        })
         .collect();
     for (&k, px) in alts.iter().zip(grown) {
         for i in px {
@@ -971,6 +976,15 @@ struct Grow<'a> {
 }
 
 impl Grow<'_> {
+    /// The pixels within `r` of pixel `i` (a square, clipped to the frame): `(u, v, index)`.
+    fn window(&self, i: usize, r: isize) -> impl Iterator<Item = (isize, isize, usize)> {
+        let (w, h) = (self.w as isize, self.h as isize);
+        let (u, v) = ((i % self.w) as isize, (i / self.w) as isize);
+        ((v - r).max(0)..=(v + r).min(h - 1))
+            .flat_map(move |y| ((u - r).max(0)..=(u + r).min(w - 1)).map(move |x| (x, y)))
+            .map(move |(x, y)| (x, y, (y * w + x) as usize))
+    }
+
     fn col(&self, i: usize) -> [f64; 3] {
         [
             self.rgb[3 * i] as f64,
@@ -981,8 +995,9 @@ impl Grow<'_> {
 
     /// The colour and plane of the face a growth starts from at mask pixel `i`: the mean
     /// colour of the pixels within 4 px whose neighbours 2 px away along the row and column
-    /// are in the mask (clear of the mixed colours along its outline), and the plane (unit normal, offset, mm) of the cuboid's
-    /// camera-facing face nearest to the mask's valid points there.
+    /// are in the mask (clear of the mixed colours along its outline), and the plane of the
+    /// cuboid's camera-facing face ([`crate::refine::visible_faces`]) nearest to the mask's
+    /// valid points there.
     fn reference(&self, m: &Mask, bx: &OrientedBox, i: usize) -> Option<FaceRef> {
         let (w, h) = (self.w, self.h);
         let interior = |j: usize| -> bool {
@@ -996,47 +1011,36 @@ impl Grow<'_> {
                 && m.data[j - 2 * w]
                 && m.data[j + 2 * w]
         };
-        let (u, v) = ((i % w) as isize, (i / w) as isize);
         let (mut sum, mut n) = ([0.0; 3], 0usize);
         let (mut ps, mut np) = (Vector3::zeros(), 0usize);
-        for y in (v - 4).max(0)..=(v + 4).min(h as isize - 1) {
-            for x in (u - 4).max(0)..=(u + 4).min(w as isize - 1) {
-                let j = y as usize * w + x as usize;
-                if !m.data[j] {
-                    continue;
-                }
-                if interior(j) {
-                    let c = self.col(j);
-                    (0..3).for_each(|k| sum[k] += c[k]);
-                    n += 1;
-                }
-                let z = self.depth.depth_mm[j] as f64;
-                if z > 0.0 {
-                    ps += self.k.back_project(x as f64, y as f64, z).coords;
-                    np += 1;
-                }
+        for (x, y, j) in self.window(i, 4) {
+            if !m.data[j] {
+                continue;
+            }
+            if interior(j) {
+                let c = self.col(j);
+                (0..3).for_each(|k| sum[k] += c[k]);
+                n += 1;
+            }
+            let z = self.depth.depth_mm[j] as f64;
+            if z > 0.0 {
+                ps += self.k.back_project(x as f64, y as f64, z).coords;
+                np += 1;
             }
         }
         if n < 5 || np < 5 {
             return None;
         }
         let p = ps / np as f64;
-        let c = bx.center_mm;
-        let half = bx.size_mm / 2.0;
-        let r = bx.rotation.matrix();
-        let mut best: Option<(f64, (Vector3<f64>, f64))> = None;
-        for a in 0..3 {
-            for sign in [-1.0, 1.0] {
-                let nrm: Vector3<f64> = r.column(a) * sign;
-                let off = nrm.dot(&c) + half[a];
-                // Seen: the camera (origin) in front of the face.
-                if off >= 0.0 {
-                    continue;
-                }
-                let d = (nrm.dot(&p) - off).abs();
-                if best.is_none_or(|b| d < b.0) {
-                    best = Some((d, (nrm, off)));
-                }
+        let half = bx.half_size_mm();
+        let (faces, n_faces) = crate::refine::visible_faces(bx);
+        let mut best: Option<(f64, Plane)> = None;
+        for &(a, sign) in &faces[..n_faces] {
+            let nrm = bx.axis(a) * sign;
+            let off = nrm.dot(&bx.center_mm) + half[a];
+            let d = (nrm.dot(&p) - off).abs();
+            if best.is_none_or(|b| d < b.0) {
+                best = Some((d, (nrm, off)));
             }
         }
         best.map(|b| (sum.map(|x| x / n as f64), b.1))
@@ -1050,7 +1054,6 @@ impl Grow<'_> {
     /// without depth (the valid pixels of a speckled band, which its dropouts alone do not
     /// connect, and not the rest of a face the segmentation left out).
     fn among_dropouts(&self, j: usize, plane: &Plane) -> bool {
-        let (w, h) = (self.w as isize, self.h as isize);
         let (ju, jv) = ((j % self.w) as isize, (j / self.w) as isize);
         let on_plane = |x: isize, y: isize, z: f64| -> bool {
             let p = self.k.back_project(x as f64, y as f64, z).coords;
@@ -1061,18 +1064,15 @@ impl Grow<'_> {
             return false;
         }
         let (mut valid, mut near, mut all) = (0usize, 0usize, 0usize);
-        for y in (jv - 2).max(0)..=(jv + 2).min(h - 1) {
-            for x in (ju - 2).max(0)..=(ju + 2).min(w - 1) {
-                let k = (y * w + x) as usize;
-                if self.held[k] {
-                    continue;
-                }
-                all += 1;
-                let z = self.depth.depth_mm[k] as f64;
-                if z > 0.0 {
-                    valid += 1;
-                    near += on_plane(x, y, z) as usize;
-                }
+        for (x, y, k) in self.window(j, 2) {
+            if self.held[k] {
+                continue;
+            }
+            all += 1;
+            let z = self.depth.depth_mm[k] as f64;
+            if z > 0.0 {
+                valid += 1;
+                near += on_plane(x, y, z) as usize;
             }
         }
         let share = self.cfg.hole_grow_min_valid * all as f64;
@@ -1084,23 +1084,19 @@ impl Grow<'_> {
         enough && near > 0 && 2 * near > valid
     }
 
-    /// Grows `masks` together (breadth first: each pixel to the first mask to reach it);
-    /// returns the pixels each takes on.
-    fn grow(&self, masks: &[(&Mask, &Shape)]) -> Vec<Vec<usize>> {
+    /// Grows `masks` together (breadth first: each pixel to the first mask to reach it) into
+    /// what `taken` leaves (it holds the masks themselves); returns the pixels each takes on.
+    fn grow(&self, masks: &[(&Mask, &Shape)], mut taken: Vec<bool>) -> Vec<Vec<usize>> {
         let (w, h, cfg) = (self.w, self.h, self.cfg);
         let dist = |a: &[f64; 3], b: &[f64; 3]| -> f64 {
             ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
         };
-        let mut taken = self.held.to_vec();
-        for (m, sh) in masks {
-            or_into(&mut taken, m, sh.bounds);
-        }
         let mut owner = vec![u32::MAX; w * h];
         // The last mask (+ 1) that found the pixel off its face; 0: none.
         let mut refused = vec![0u32; w * h];
         let mut caps = Vec::with_capacity(masks.len());
         let mut sizes = Vec::with_capacity(masks.len());
-        // (pixel, mask, colour and depth its growth keeps; None: a mask pixel, not yet known)
+        // (pixel, mask, the face its growth keeps to; None: a mask pixel, not yet known)
         type Item = (usize, usize, Option<FaceRef>);
         let mut queue: std::collections::VecDeque<Item> = Default::default();
         for (k, (m, sh)) in masks.iter().enumerate() {
@@ -1244,13 +1240,9 @@ impl Grow<'_> {
                     let i = piece[at];
                     at += 1;
                     // Pieces of a speckled band join across the valid pixels between.
-                    let (u, v) = ((i % w) as isize, (i / w) as isize);
-                    for y in (v - 2).max(0)..=(v + 2).min(h as isize - 1) {
-                        for x in (u - 2).max(0)..=(u + 2).min(w as isize - 1) {
-                            let j = y as usize * w + x as usize;
-                            if owner[j] == k as u32 && !masks[k].0.data[j] && seen.insert(j) {
-                                piece.push(j);
-                            }
+                    for (_, _, j) in self.window(i, 2) {
+                        if owner[j] == k as u32 && !masks[k].0.data[j] && seen.insert(j) {
+                            piece.push(j);
                         }
                     }
                 }
