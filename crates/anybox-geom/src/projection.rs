@@ -104,14 +104,32 @@ pub fn silhouette_hull_px(b: &OrientedBox, k: &Intrinsics) -> Option<Vec<Point2<
 /// Pixel `(u, v)` (index `v·width + u`) is set when its centre, the point `(u, v)`, lies inside
 /// or on the polygon. A polygon of 1 or 2 vertices sets the pixel centres lying on that point or
 /// segment. An empty polygon, a non-finite vertex, or a `width × height` that overflows `usize`
-/// gives an all-false mask (empty in the overflow case).
+/// gives an all-false mask (empty in the overflow case). [`convex_polygon_spans`] gives the
+/// same pixels as row intervals, without a frame-sized mask.
 pub fn rasterize_convex_polygon(poly: &[Point2<f64>], width: u32, height: u32) -> Vec<bool> {
     let Some(n_px) = (width as usize).checked_mul(height as usize) else {
         return Vec::new();
     };
     let mut mask = vec![false; n_px];
-    if poly.is_empty() || poly.iter().any(|p| !p.x.is_finite() || !p.y.is_finite()) {
-        return mask;
+    for (v, u_lo, u_hi) in convex_polygon_spans(poly, width, height) {
+        let row = v as usize * width as usize;
+        mask[row + u_lo as usize..=row + u_hi as usize].fill(true);
+    }
+    mask
+}
+
+/// The pixels of [`rasterize_convex_polygon`] as row intervals `(v, u_lo, u_hi)` (inclusive,
+/// within `width × height`), rows increasing and each at most once: a walk over the spans
+/// visits the polygon's pixels in row-major order at a cost that grows with the polygon, not
+/// the frame. Empty for an empty polygon or a non-finite vertex.
+pub fn convex_polygon_spans(poly: &[Point2<f64>], width: u32, height: u32) -> Vec<(u32, u32, u32)> {
+    let mut spans = Vec::new();
+    if width == 0
+        || height == 0
+        || poly.is_empty()
+        || poly.iter().any(|p| !p.x.is_finite() || !p.y.is_finite())
+    {
+        return spans;
     }
     let (mut v_min, mut v_max) = (f64::INFINITY, f64::NEG_INFINITY);
     for p in poly {
@@ -121,12 +139,12 @@ pub fn rasterize_convex_polygon(poly: &[Point2<f64>], width: u32, height: u32) -
     let row_lo = v_min.ceil().max(0.0);
     let row_hi = v_max.floor().min(height as f64 - 1.0);
     if row_lo > row_hi {
-        return mask;
+        return spans;
     }
     let n = poly.len();
     // Both bounds are clamped to [0, height-1], so the casts are exact.
-    for v in (row_lo as usize)..=(row_hi as usize) {
-        let y = v as f64;
+    for v in (row_lo as u32)..=(row_hi as u32) {
+        let y = f64::from(v);
         // The intersection of a horizontal line with a convex polygon is one interval:
         // the min/max over the edges' crossings (including edges lying on the line).
         let (mut u_lo, mut u_hi) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -159,12 +177,10 @@ pub fn rasterize_convex_polygon(poly: &[Point2<f64>], width: u32, height: u32) -
         if c_lo > c_hi {
             continue;
         }
-        let row = v * width as usize;
-        for u in (c_lo as usize)..=(c_hi as usize) {
-            mask[row + u] = true;
-        }
+        // Clamped to [0, width-1]: exact.
+        spans.push((v, c_lo as u32, c_hi as u32));
     }
-    mask
+    spans
 }
 
 /// Intersection of the ray `origin + t·dir` (camera frame, mm; `dir` need not be unit) with a

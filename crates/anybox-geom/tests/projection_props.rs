@@ -2,8 +2,8 @@
 
 use anybox_geom::nalgebra::{Point2, Point3, Rotation3, Vector3};
 use anybox_geom::projection::{
-    convex_hull_2d, project_corners_px, rasterize_convex_polygon, ray_box_intersection,
-    silhouette_hull_px,
+    convex_hull_2d, convex_polygon_spans, project_corners_px, rasterize_convex_polygon,
+    ray_box_intersection, silhouette_hull_px,
 };
 use anybox_geom::{Intrinsics, OrientedBox};
 use proptest::prelude::*;
@@ -63,6 +63,15 @@ proptest! {
                 prop_assert_eq!(mask[(v * W + u) as usize], hit, "pixel ({}, {})", u, v);
             }
         }
+        // The spans, walked in order, visit exactly the set pixels, row-major, each once.
+        let spans = convex_polygon_spans(&hull, W, H);
+        prop_assert!(spans.windows(2).all(|p| p[0].0 < p[1].0), "rows increase");
+        let walked: Vec<usize> = spans
+            .iter()
+            .flat_map(|&(v, u0, u1)| (u0..=u1).map(move |u| (v * W + u) as usize))
+            .collect();
+        let set: Vec<usize> = (0..mask.len()).filter(|&i| mask[i]).collect();
+        prop_assert_eq!(walked, set);
     }
 
     #[test]

@@ -15,7 +15,7 @@
 use std::collections::BTreeMap;
 
 use anybox_geom::projection::{
-    convex_hull_2d, rasterize_convex_polygon, ray_box_intersection, silhouette_hull_px,
+    convex_hull_2d, convex_polygon_spans, ray_box_intersection, silhouette_hull_px,
 };
 use anybox_geom::OrientedBox;
 use nalgebra::{Matrix3, Point2, Point3, Rotation3, Vector3};
@@ -783,17 +783,24 @@ pub(crate) fn fill(
             ..raw.bx
         };
         let inner = silhouette_hull_px(&raw.bx, &g.k)
-            .map(|hull| rasterize_convex_polygon(&hull, w as u32, h as u32));
+            .map(|hull| convex_polygon_spans(&hull, w as u32, h as u32));
         if let (Some(hull), Some(inner)) = (silhouette_hull_px(&grown, &g.k), inner) {
-            let inside = rasterize_convex_polygon(&hull, w as u32, h as u32);
-            for (i, &ins) in inside.iter().enumerate() {
-                if !ins || claimed[i] {
+            // The grown hull's cells, row-major (as a frame-sized scan would meet them).
+            let hull_cells = convex_polygon_spans(&hull, w as u32, h as u32)
+                .into_iter()
+                .flat_map(|(v, u0, u1)| (u0..=u1).map(move |u| v as usize * w + u as usize));
+            for i in hull_cells {
+                if claimed[i] {
                     continue;
                 }
                 let z = g.z[i] as f64;
                 // No depth: inside the cuboid's own silhouette only.
                 let fits = if z <= 0.0 {
-                    inner[i]
+                    let (u, v) = ((i % w) as u32, (i / w) as u32);
+                    // Rows are increasing and unique.
+                    inner
+                        .binary_search_by_key(&v, |s| s.0)
+                        .is_ok_and(|k| (inner[k].1..=inner[k].2).contains(&u))
                 } else {
                     let (u, v) = ((i % w) as f64, (i / w) as f64);
                     let dir = g.k.ray(u, v);
@@ -1178,15 +1185,14 @@ pub(crate) fn score_faces(
     // Silhouette IoU and depth consistency inside the hull.
     let hull = silhouette_hull_px(&bx, &g.k)?;
     let (w, h) = (g.w, g.h);
-    let inside = rasterize_convex_polygon(&hull, w as u32, h as u32);
     let mut inter = 0usize;
     let mut hull_n = 0usize;
     let mut see_through = 0usize;
     let mut checked = 0usize;
-    for (i, &ins) in inside.iter().enumerate() {
-        if !ins {
-            continue;
-        }
+    let inside = convex_polygon_spans(&hull, w as u32, h as u32)
+        .into_iter()
+        .flat_map(|(v, u0, u1)| (u0..=u1).map(move |u| v as usize * w + u as usize));
+    for i in inside {
         if member(i) {
             hull_n += 1;
             inter += 1;
