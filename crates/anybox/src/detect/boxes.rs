@@ -529,6 +529,15 @@ pub(crate) fn rectangle_axes(a: &Vector3<f64>, pts: &[Vector3<f64>], q: f64) -> 
     [*a, best.1, best.2]
 }
 
+/// The cells of a `w × h` grid whose centres lie in the convex polygon `hull` (grid
+/// coordinates), row-major: the cells a frame-sized scan of its raster would meet, in that
+/// order, at a cost that grows with the polygon.
+fn hull_cells(hull: &[Point2<f64>], w: usize, h: usize) -> impl Iterator<Item = usize> {
+    convex_polygon_spans(hull, w as u32, h as u32)
+        .into_iter()
+        .flat_map(move |(v, u0, u1)| (u0..=u1).map(move |u| v as usize * w + u as usize))
+}
+
 /// A scored group of faces with its fitted cuboid, before the final mask fill.
 pub(crate) struct Raw {
     /// Grid cells of the grouped faces.
@@ -785,11 +794,7 @@ pub(crate) fn fill(
         let inner = silhouette_hull_px(&raw.bx, &g.k)
             .map(|hull| convex_polygon_spans(&hull, w as u32, h as u32));
         if let (Some(hull), Some(inner)) = (silhouette_hull_px(&grown, &g.k), inner) {
-            // The grown hull's cells, row-major (as a frame-sized scan would meet them).
-            let hull_cells = convex_polygon_spans(&hull, w as u32, h as u32)
-                .into_iter()
-                .flat_map(|(v, u0, u1)| (u0..=u1).map(move |u| v as usize * w + u as usize));
-            for i in hull_cells {
+            for i in hull_cells(&hull, w, h) {
                 if claimed[i] {
                     continue;
                 }
@@ -1189,10 +1194,7 @@ pub(crate) fn score_faces(
     let mut hull_n = 0usize;
     let mut see_through = 0usize;
     let mut checked = 0usize;
-    let inside = convex_polygon_spans(&hull, w as u32, h as u32)
-        .into_iter()
-        .flat_map(|(v, u0, u1)| (u0..=u1).map(move |u| v as usize * w + u as usize));
-    for i in inside {
+    for i in hull_cells(&hull, w, h) {
         if member(i) {
             hull_n += 1;
             inter += 1;

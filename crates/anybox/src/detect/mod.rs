@@ -914,11 +914,6 @@ fn grow_into_holes(
         .map(|&k| (&dets[k].mask, &shapes[k]))
         .collect();
     let added = ctx.grow(&masks, held.clone());
-    for (&k, px) in primary.iter().zip(added) {
-        for i in px {
-            dets[k].mask.data[i] = true;
-        }
-    }
     let alts: Vec<usize> = (0..dets.len()).filter(|&k| dets[k].alternative).collect();
     let grown: Vec<Vec<usize>> = alts
         .par_iter()
@@ -929,7 +924,8 @@ fn grow_into_holes(
                 .swap_remove(0)
         })
         .collect();
-    for (&k, px) in alts.iter().zip(grown) {
+    // Every growth above read the masks as they were; each takes its pixels only now.
+    for (&k, px) in primary.iter().zip(added).chain(alts.iter().zip(grown)) {
         for i in px {
             dets[k].mask.data[i] = true;
         }
