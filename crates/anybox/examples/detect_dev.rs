@@ -21,7 +21,9 @@
 //! 3D IoU, and the share of the union's silhouette seen past it (`st`, tolerance 10 and 25 mm;
 //! `depth_filter::see_through_fraction`, as `pipeline::gap_unions` uses it). `RAW=1` with a
 //! dump dir also writes the image with invalid depth in red. `REPS=n` times the detector (with
-//! `EST=1`, detection and estimation) as the fastest of n runs.
+//! `EST=1`, detection and estimation) as the fastest of n runs. `RAWRGB=<dir>` writes each
+//! view's colour image (`rgb_<view>.png`) and its depth as grey (`depth_<view>.png`; black: no
+//! depth).
 //! `DETECT_DEBUG=1` prints the detector's `log::debug!` diagnostics (planes, regions, face
 //! pairs, selection) to stderr.
 //! A GT box counts when its visible fraction is ≥ 0.5; a detection is a true positive when its
@@ -474,6 +476,35 @@ fn main() {
             }
             let v = generate_view(&sc, s, 0);
             let (dets, ms) = detect_timed(Some(&v.rgb), &v.depth, &v.intrinsics, &cfg);
+            if let Ok(dir) = std::env::var("RAWRGB") {
+                // The view's colour image, and its depth as grey (near dark, far light, no
+                // depth black), stretched over the frame's 1st–99th percentile.
+                let _ = v.rgb.save(format!("{dir}/rgb_{s}.png"));
+                let mut zs: Vec<f32> = v
+                    .depth
+                    .depth_mm
+                    .iter()
+                    .copied()
+                    .filter(|z| *z > 0.0)
+                    .collect();
+                zs.sort_by(|a, b| a.total_cmp(b));
+                let at = |f: f64| {
+                    zs.get((zs.len().saturating_sub(1) as f64 * f) as usize)
+                        .copied()
+                        .unwrap_or(0.0)
+                };
+                let (lo, hi) = (at(0.01), at(0.99).max(at(0.01) + 1.0));
+                let grey = image::GrayImage::from_fn(v.rgb.width(), v.rgb.height(), |x, y| {
+                    let z = v.depth.depth_mm[(y * v.rgb.width() + x) as usize];
+                    let g = if z > 0.0 {
+                        1.0 + 254.0 * ((z - lo) / (hi - lo)).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    image::Luma([g as u8])
+                });
+                let _ = grey.save(format!("{dir}/depth_{s}.png"));
+            }
             if std::env::var("EST3D").is_ok() {
                 // Per GT (visib ≥ 0.5): best detection mask IoU, and the 3D IoU of the estimate
                 // from that detection's mask versus from the GT mask.

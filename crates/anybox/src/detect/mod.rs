@@ -301,8 +301,11 @@ pub struct DetectConfig {
     pub max_framed_fraction: f64,
     /// A single-face candidate whose mask covers fewer pixels than this (at 640 × 480; scaled
     /// by image area) is dropped: two of its dimensions would be guesses, and such small lone
-    /// faces are slivers and clutter. Default 1000 (generated views, seeds 2026/7/11: 227 of
-    /// 606 single-face detections were below it, none of them a true box).
+    /// faces are mostly slivers and clutter. Default 500: the top of a small box lying flat
+    /// far off is such a face too (bench, 48 views per set, seeds 2026 / 7 / 11, mean AP@0.5
+    /// of the 15 rows against 1000, the default before: 0.6351 → 0.6381, the tables up in all
+    /// nine rows; 700: 0.6380, 300: 0.6376; seeds 3 / 5, not used to choose it: 0.6133 →
+    /// 0.6165).
     pub one_face_min_pixels: u32,
     /// Evidence: the final score of a detection is its box-likeness times `px / (px + this)`,
     /// `px` its mask's pixel count (at 640 × 480; scaled by image area). A small mask is more
@@ -658,7 +661,7 @@ impl Default for DetectConfig {
             min_one_face_iou: 0.84,
             min_one_face_corners: 0.2,
             max_framed_fraction: 0.5,
-            one_face_min_pixels: 1000,
+            one_face_min_pixels: 500,
             evidence_half_pixels: 2000.0,
             two_face_factor: 0.9,
             min_score: 0.3,

@@ -752,28 +752,33 @@ fn ycbv_both_boxes_found_in_every_frame() {
 
 #[test]
 fn small_lone_faces_are_dropped() {
-    // A 70 × 50 × 40 mm block flat on the table: only its top is seen as a face, < 1000 px.
+    // A 50 × 35 × 30 mm block flat on the table 1 m away: only its top is seen as a face, of
+    // about 700 px.
     let s = Scene::new();
-    let tile = s.standing_box(0.0, 80.0, 0.0, Vector3::new(70.0, 50.0, 40.0));
+    let tile = s.standing_box(0.0, 80.0, 0.0, Vector3::new(50.0, 35.0, 30.0));
     let (rgb, depth, owner) = s.render(&[Obj::Cuboid(tile)]);
     let gt = mask_of(&owner, 0);
-    let found = |cfg: &DetectConfig| {
-        detect_boxes(Some(&rgb), &depth, &k(), cfg)
+    let found = |min: u32| {
+        let cfg = DetectConfig {
+            one_face_min_pixels: min,
+            ..DetectConfig::default()
+        };
+        detect_boxes(Some(&rgb), &depth, &k(), &cfg)
             .unwrap()
             .iter()
             .filter(|d| d.mask.iou(&gt) > 0.3)
             .map(|d| (d.n_faces, d.mask.count()))
             .collect::<Vec<_>>()
     };
-    let all = found(&DetectConfig {
-        one_face_min_pixels: 0,
-        ..DetectConfig::default()
-    });
-    assert!(
-        all.iter().any(|&(f, n)| f == 1 && n < 1000),
-        "without the limit the tile's top is a lone-face detection: {all:?}"
-    );
-    let kept = found(&DetectConfig::default());
+    let all = found(0);
+    let px = match all.as_slice() {
+        [(1, px)] => *px as u32,
+        _ => panic!("without the limit the tile's top is one lone-face detection: {all:?}"),
+    };
+    // The default keeps a face this large; a limit above its size drops it.
+    assert!(px >= DetectConfig::default().one_face_min_pixels, "{px}");
+    assert_eq!(found(DetectConfig::default().one_face_min_pixels), all);
+    let kept = found(px + 1);
     assert!(kept.is_empty(), "{kept:?}");
 }
 
