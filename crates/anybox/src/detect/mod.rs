@@ -468,7 +468,7 @@ pub struct DetectConfig {
     /// disables. Default 0.5 (bench, 48 views, seeds 2026 / 7 / 11, mean of the 15 rows
     /// against 0: AP@0.5 0.6302 → 0.6351, AP@0.7 0.4764 → 0.4858, AP@0.25 0.7957 → 0.7927;
     /// shelves +0.015 / +0.027 / −0.010, tables −0.003 to +0.012, pallets within ±0.004; see
-    /// the README for the variants measured).
+    /// `docs/detection-log.md` for the variants measured).
     pub hole_grow_max_fraction: f64,
     /// See `hole_grow_max_fraction`: each connected piece grown must hold at least this
     /// fraction of the mask's pixels, or it goes. Default 0.02.
