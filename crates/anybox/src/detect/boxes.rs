@@ -7,6 +7,8 @@
 //!   face's plane (curved and irregular surfaces score low);
 //! - **silhouette**: IoU between the candidate's cells and the convex hull of the fitted cuboid's
 //!   projected corners (`anybox_geom::projection`), the cuboid-silhouette test of SPEC §1;
+//!   unlabelled cells and cells nearer than the cuboid (occluders, with
+//!   `DetectConfig::occluders_unknown`) count neither for nor against it;
 //! - **depth consistency**: the paper's filter (§3, `crate::depth_filter`) in image form — inside
 //!   the cuboid's silhouette, the sensor must not see *through* the cuboid: the fraction of cells
 //!   whose measured depth lies behind the cuboid's front surface by more than the tolerance is
@@ -1203,19 +1205,25 @@ pub(crate) fn score_faces(
         if unknown(i) {
             continue;
         }
-        hull_n += 1;
         let z = g.z[i] as f64;
         if z <= 0.0 {
+            hull_n += 1;
             continue;
         }
         let (u, v) = ((i % w) as f64, (i / w) as f64);
         let dir = g.k.ray(u, v);
         if let Some((t, _, _)) = ray_box_intersection(&Point3::origin(), &dir, &bx) {
+            let margin = cfg.see_through_margin_mm + 2.0 * plane_tol(cfg, z);
+            // A nearer thing hides this part of the box: it says nothing of its shape.
+            if cfg.occluders_unknown && z < t - margin {
+                continue;
+            }
             checked += 1;
-            if z > t + cfg.see_through_margin_mm + 2.0 * plane_tol(cfg, z) {
+            if z > t + margin {
                 see_through += 1;
             }
         }
+        hull_n += 1;
     }
     let union = hull_n + all.len() - inter;
     let iou = inter as f64 / union.max(1) as f64;
