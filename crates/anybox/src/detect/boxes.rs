@@ -1195,7 +1195,6 @@ pub(crate) fn score_faces(
     let mut inter = 0usize;
     let mut hull_n = 0usize;
     let mut see_through = 0usize;
-    let mut checked = 0usize;
     for i in hull_cells(&hull, w, h) {
         if member(i) {
             hull_n += 1;
@@ -1206,19 +1205,16 @@ pub(crate) fn score_faces(
             continue;
         }
         let z = g.z[i] as f64;
-        if z <= 0.0 {
-            hull_n += 1;
-            continue;
-        }
         let (u, v) = ((i % w) as f64, (i / w) as f64);
-        let dir = g.k.ray(u, v);
-        if let Some((t, _, _)) = ray_box_intersection(&Point3::origin(), &dir, &bx) {
+        let hit = (z > 0.0)
+            .then(|| ray_box_intersection(&Point3::origin(), &g.k.ray(u, v), &bx))
+            .flatten();
+        if let Some((t, _, _)) = hit {
             let margin = cfg.see_through_margin_mm + 2.0 * plane_tol(cfg, z);
             // A nearer thing hides this part of the box: it says nothing of its shape.
             if cfg.occluders_unknown && z < t - margin {
                 continue;
             }
-            checked += 1;
             if z > t + margin {
                 see_through += 1;
             }
@@ -1228,7 +1224,6 @@ pub(crate) fn score_faces(
     let union = hull_n + all.len() - inter;
     let iou = inter as f64 / union.max(1) as f64;
     let depth_ok = 1.0 - see_through as f64 / hull_n.max(1) as f64;
-    let _ = checked;
     let faces_factor = match n_faces {
         1 => cfg.one_face_factor,
         2 => cfg.two_face_factor,
