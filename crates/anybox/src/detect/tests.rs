@@ -1551,9 +1551,12 @@ fn up_is_the_floor_not_a_larger_wall_seen_at_a_grazing_angle() {
     let (hit, n) = found(&DetectConfig::default());
     assert_eq!(n, 4, "the view's counted cartons");
     assert_eq!(hit, n, "found {hit} of {n}");
-    // Premise: with no hint "up" is the wall, and the cartons are lost again.
+    // Premise: with no hint "up" is the wall, and the cartons are lost again, with the
+    // support band of 2.5 plane tolerances of the time (with the band of 1.5, the default
+    // since, all four are found with no hint too).
     let (lost_hit, _) = found(&DetectConfig {
         support_up_hint: [0.0; 3],
+        support_tol_factor: 2.5,
         ..DetectConfig::default()
     });
     assert!(
