@@ -248,9 +248,9 @@ pub struct DetectConfig {
     /// within it). Default 1.5: at 1.4–1.6 m, 2.5 tolerances (the default before) are 39–50
     /// mm, and that band took in up to half of some boxes' visible masks (seed 7 shelves, 48
     /// views: four boxes whose shortest side is 84–153 mm, with 20–51 % of their mask on a
-    /// support, went from 3D IoU ≤ 0.43 to ≥ 0.82). Bench, 48 views per set, seeds 2026 / 7 / 11, mean AP@0.5 of the
-    /// 15 rows against 2.5: 0.6437 → 0.6479 (shelves +0.010, pallets +0.004); 2.0: 0.6449,
-    /// 1.2: 0.6474, 1.0: 0.6472.
+    /// support, went from 3D IoU ≤ 0.43 to ≥ 0.82). Bench, 48 views per set, seeds 2026 / 7 /
+    /// 11, mean AP@0.5 of the 15 rows against 2.5: 0.6437 → 0.6479 (shelves +0.010, pallets
+    /// +0.004); 2.0: 0.6449, 1.2: 0.6474, 1.0: 0.6472.
     pub support_tol_factor: f64,
     /// Faces need at least this many cells. Default 25.
     pub min_face_cells: u32,
