@@ -746,6 +746,16 @@ pub fn alternative_readings(
     }
 }
 
+/// Whether `a` is `k` ≥ 2 copies of `b` laid end to end, as [`repeat_readings`] judges it
+/// (`tiled_union_max_angle_deg`, `repeat_split_tol`, `repeat_split_max_parts`).
+pub(crate) fn is_copies_of(
+    a: &OrientedBox,
+    b: &OrientedBox,
+    cfg: &crate::detect::DetectConfig,
+) -> bool {
+    matches!(repeat_of(a, b, cfg), Some(Repeat::Copies { .. }))
+}
+
 /// How one box repeats another's size ([`repeat_of`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Repeat {
@@ -1001,6 +1011,39 @@ mod tests {
                 .fold(0.0, f64::max);
             assert!(best > 0.999, "best IoU {best}");
         }
+    }
+
+    #[test]
+    fn copies_need_parallel_axes_two_equal_extents_and_a_whole_multiple() {
+        let cfg = crate::detect::DetectConfig::default();
+        let (row, merged, other) = carton_row(3.0);
+        assert!(is_copies_of(&merged, &other, &cfg), "three copies");
+        assert!(
+            is_copies_of(&merged, &row[1], &cfg),
+            "three copies, overlapping"
+        );
+        assert!(
+            !is_copies_of(&other, &merged, &cfg),
+            "a third of a row is no row"
+        );
+        assert!(
+            !is_copies_of(&row[0], &other, &cfg),
+            "one carton is not copies"
+        );
+        let (_, _, turned) = carton_row(30.0);
+        assert!(!is_copies_of(&merged, &turned, &cfg), "turned 30°");
+        let mut long = merged;
+        long.size_mm.x = 625.0;
+        assert!(!is_copies_of(&long, &other, &cfg), "2.5 cartons long");
+        let mut short = merged;
+        short.size_mm.x = 200.0;
+        assert!(
+            !is_copies_of(&short, &other, &cfg),
+            "a short box is an extension"
+        );
+        let mut wide = merged;
+        wide.size_mm.y = 400.0;
+        assert!(!is_copies_of(&wide, &other, &cfg), "two extents differ");
     }
 
     #[test]

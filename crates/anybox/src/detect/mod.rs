@@ -23,7 +23,8 @@
 //!    could not tie together.
 //!
 //! Object-, surface- and colour-level candidates then compete by score; a coarse candidate with
-//! a seam between coplanar colour patches (flush cartons) gives way to the finer ones; what
+//! a seam between coplanar colour patches (flush cartons), or one that is copies of a whole
+//! carton found inside it, gives way to the finer ones; what
 //! the selected candidates leave of an object is tried as a box again
 //! ([`DetectConfig::residual_score_factor`]). A candidate cut in two by a nearer thing takes
 //! in its other piece past the occluder (`occluded`, [`DetectConfig::occluded_reach_mm`]). A
@@ -440,6 +441,19 @@ pub struct DetectConfig {
     /// Colour-level candidates count for a split when they hold at least this fraction of the
     /// surface-level candidate's cells. Default 0.03.
     pub split_min_fraction: f64,
+    /// A coarse candidate (object or surface level) is also split when a colour-level
+    /// candidate inside it is a whole carton on its own: at least this many faces, scored at
+    /// least `split_carton_min_score_ratio` times the coarse one, holding at most
+    /// `split_carton_max_fraction` of its cells, and the coarse cuboid is `k` ≥ 2 copies of
+    /// its cuboid laid end to end (as the repeat readings judge it: `repeat_split_tol`,
+    /// `repeat_split_max_parts`, `tiled_union_max_angle_deg`). Two cartons of one size side by
+    /// side with flush faces make a cuboid that fits and scores as well as either, and the
+    /// seam between them may show too little to count. 0 disables. Default 3.
+    pub split_carton_min_faces: u32,
+    /// See `split_carton_min_faces`. Default 0.85.
+    pub split_carton_min_score_ratio: f64,
+    /// See `split_carton_min_faces`. Default 0.75.
+    pub split_carton_max_fraction: f64,
     /// A candidate is dropped when more than this fraction of its cells belongs to a better
     /// one. Default 0.3.
     pub max_overlap: f64,
@@ -710,6 +724,9 @@ impl Default for DetectConfig {
             halves_isolated_pairs: true,
             split_seam_reach_cells: 3,
             split_min_fraction: 0.03,
+            split_carton_min_faces: 3,
+            split_carton_min_score_ratio: 0.85,
+            split_carton_max_fraction: 0.75,
             max_overlap: 0.3,
             residual_score_factor: 1.7,
             residual_max_cells: 2500,
@@ -1770,7 +1787,8 @@ fn same_colour(g: &grid::Grid, a: &boxes::Raw, b: &boxes::Raw, cfg: &DetectConfi
 
 /// Which coarse candidates (objects or surfaces) are several cartons with flush faces: a seam
 /// (thin dark line) runs between two of the colour-level candidates inside it (each
-/// `split_min_fraction` of it) whose faces are coplanar. Returns, per coarse candidate, whether
+/// `split_min_fraction` of it) whose faces are coplanar, or one of those is a whole carton
+/// that the coarse cuboid repeats ([`contains_carton`]). Returns, per coarse candidate, whether
 /// it splits and the colour-level candidates inside it (≥ 80 % of their cells), and the
 /// colour-level candidates inside none.
 fn split_evidence(
@@ -1869,9 +1887,10 @@ fn split_evidence(
                 );
             }
             log::debug!(
-                "split? coarse {k} cells {} big {}",
+                "split? coarse {k} cells {} big {} carton {}",
                 gc.cells.len(),
-                big.len()
+                big.len(),
+                contains_carton(gc, &big, col, cfg)
             );
         }
         split[k] = between.iter().any(|(&(a, b), seam)| {
@@ -1879,9 +1898,28 @@ fn split_evidence(
                 && !(cfg.split_flap_check
                     && flap_seam(g, &gc.cells, seam, &col[a].normal)
                     && same_colour(g, &col[a], &col[b], cfg))
-        });
+        }) || contains_carton(gc, &big, col, cfg);
     }
     (split, inside, free)
+}
+
+/// Whether one of the colour-level candidates `inside` a coarse candidate is a whole carton
+/// on its own (see [`DetectConfig::split_carton_min_faces`]).
+fn contains_carton(
+    coarse: &boxes::Raw,
+    inside: &[usize],
+    col: &[boxes::Raw],
+    cfg: &DetectConfig,
+) -> bool {
+    let min_faces = cfg.split_carton_min_faces;
+    min_faces > 0
+        && inside.iter().any(|&c| {
+            let p = &col[c];
+            u32::from(p.n_faces) >= min_faces
+                && p.score >= cfg.split_carton_min_score_ratio * coarse.score
+                && p.cells.len() as f64 <= cfg.split_carton_max_fraction * coarse.cells.len() as f64
+                && crate::pipeline::is_copies_of(&coarse.bx, &p.bx, cfg)
+        })
 }
 
 /// Chooses among the object-level, surface-level and colour-level candidates, then suppresses

@@ -1807,3 +1807,28 @@ fn a_box_lying_on_a_flat_box_does_not_hide_it() {
         "best mask IoU with the occluder counted against the top {lost}"
     );
 }
+
+#[test]
+fn two_flush_cartons_of_one_size_part_where_one_is_a_whole_box_inside_the_pair() {
+    // Generated pallet scene (seed 2026, scene 2, the bench's pallet view 2): two 572 × 318 ×
+    // 235 mm cartons of one colour side by side on the top layer, tops and fronts flush. Together
+    // they make a 572 × 636 × 235 mm cuboid that fits and scores as well as either, and too
+    // little of the seam between them shows to split it; the nearer carton's own three faces
+    // make a colour-level candidate inside the pair.
+    let v = pallet_view(2026, u32::MAX, 2);
+    let split = best_mask_ious(&v, &DetectConfig::default());
+    let merged = best_mask_ious(
+        &v,
+        &DetectConfig {
+            split_carton_min_faces: 0,
+            ..DetectConfig::default()
+        },
+    );
+    // Premise: without the rule, the nearer carton's best mask takes in its neighbour.
+    assert!(merged[5] < 0.8, "without the rule: {merged:?}");
+    assert!(split[5] > 0.9, "with it: {split:?}");
+    // No carton of the scene lost its detection.
+    for (k, (s, m)) in split.iter().zip(&merged).enumerate() {
+        assert!(*s > 0.5 || *m <= 0.5, "carton {k}: {s:.2} against {m:.2}");
+    }
+}
