@@ -12,6 +12,8 @@
 //!
 //! Around the pipeline: [`runner`] runs it over a BOP dataset or one frame and writes result
 //! records, [`overlay`] draws the boxes, [`bench`](mod@bench) compares the estimator variants.
+//! The crate-internal `repeat` module judges whether one box is copies of another's size, for
+//! the detector (stage 2) and the pipeline's repeat readings (stage 7) alike.
 //!
 //! Evaluation ([`eval`]) and the synthetic generator ([`synth`]) are their own crates,
 //! re-exported here.
@@ -29,6 +31,7 @@ pub mod overlay;
 pub mod pipeline;
 pub mod pose;
 pub mod refine;
+mod repeat;
 pub mod runner;
 pub mod scale;
 pub mod segmentation;

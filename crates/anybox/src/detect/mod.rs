@@ -1922,7 +1922,7 @@ fn contains_carton(
             u32::from(p.n_faces) >= min_faces
                 && p.score >= cfg.split_carton_min_score_ratio * coarse.score
                 && p.cells.len() as f64 <= cfg.split_carton_max_fraction * coarse.cells.len() as f64
-                && crate::pipeline::is_copies_of(&coarse.bx, &p.bx, cfg)
+                && crate::repeat::is_copies_of(&coarse.bx, &p.bx, cfg)
         })
 }
 
