@@ -63,7 +63,7 @@ pub(crate) fn support_mask(
     surface_labels: &[u32],
     surfaces: &[Region],
     cfg: &DetectConfig,
-) -> (Vec<bool>, Vec<Region>) {
+) -> (Vec<bool>, Vec<Region>, Option<Vector3<f64>>) {
     let mut is_support = vec![false; surfaces.len()];
     let mut planes = Vec::new();
     let mut members: Vec<Vec<usize>> = vec![Vec::new(); surfaces.len()];
@@ -172,7 +172,7 @@ pub(crate) fn support_mask(
                 || (g.z[i] > 0.0 && ransac.iter().any(|pl| on_plane(i, pl)))
         })
         .collect();
-    (on, planes)
+    (on, planes, up)
 }
 
 /// "Up" from the candidate planes `(camera-facing unit normal, area mm²)` (see
@@ -767,6 +767,8 @@ pub(crate) fn fill(
     g: &Grid,
     raws: Vec<Raw>,
     claimed: &mut [bool],
+    planes: &[Region],
+    up: Option<Vector3<f64>>,
     cfg: &DetectConfig,
 ) -> Vec<Candidate> {
     let (w, h) = (g.w, g.h);
@@ -788,12 +790,14 @@ pub(crate) fn fill(
         }
         let mut cells = raw.cells.clone();
         let mut score = raw.score;
-        let margin = cfg.fill_margin_factor * plane_tol(cfg, raw.bx.center_mm.z.max(1.0));
+        let tol_c = plane_tol(cfg, raw.bx.center_mm.z.max(1.0));
+        let margin = cfg.fill_margin_factor * tol_c;
+        let bx = down_to_support(&raw.bx, planes, up, tol_c, cfg);
         let grown = OrientedBox {
-            size_mm: raw.bx.size_mm.add_scalar(2.0 * margin),
-            ..raw.bx
+            size_mm: bx.size_mm.add_scalar(2.0 * margin),
+            ..bx
         };
-        let inner = silhouette_hull_px(&raw.bx, &g.k)
+        let inner = silhouette_hull_px(&bx, &g.k)
             .map(|hull| convex_polygon_spans(&hull, w as u32, h as u32));
         if let (Some(hull), Some(inner)) = (silhouette_hull_px(&grown, &g.k), inner) {
             for i in hull_cells(&hull, w, h) {
@@ -864,6 +868,59 @@ pub(crate) fn fill(
         }));
     }
     result.into_iter().flatten().collect()
+}
+
+/// `bx` extended towards the support plane it stands just above, for filling: objects lose
+/// the cells within `blob_support_gap_factor` plane tolerances (`tol_mm`, at the box's depth)
+/// of a support, so a box's side faces come out short and its cuboid ends above the plane.
+/// When one of `bx`'s axes is within `perpendicular_tol_deg` of the normal of a support
+/// parallel to `up` (within `support_normal_tol_deg`; none without `up`) and its lowest
+/// corner lies above that plane by at most `fill_support_reach_factor` tolerances, the box is
+/// extended along that axis until, grown by the fill margin (`fill_margin_factor`), it ends
+/// half a tolerance above the plane. Otherwise `bx` unchanged.
+fn down_to_support(
+    bx: &OrientedBox,
+    planes: &[Region],
+    up: Option<Vector3<f64>>,
+    tol_mm: f64,
+    cfg: &DetectConfig,
+) -> OrientedBox {
+    let reach = cfg.fill_support_reach_factor * tol_mm;
+    let cos_par = cfg.perpendicular_tol_deg.to_radians().cos();
+    let cos_up = cfg.support_normal_tol_deg.to_radians().cos();
+    let Some(up) = up.filter(|_| reach > 0.0) else {
+        return *bx;
+    };
+    let corners = bx.corners_mm();
+    // Only planes things stand on (parallel to up): a box near a wall does not reach it.
+    for pl in planes
+        .iter()
+        .filter(|pl| pl.normal.dot(&up).abs() >= cos_up)
+    {
+        let Some(a) = (0..3).find(|&a| bx.axis(a).dot(&pl.normal).abs() >= cos_par) else {
+            continue;
+        };
+        let low = corners
+            .iter()
+            .map(|c| pl.dist(&[c.x as f32, c.y as f32, c.z as f32]))
+            .fold(f64::INFINITY, f64::min);
+        // The filled box is `bx` grown by the fill margin: its bottom stops half a tolerance
+        // above the plane, so that the support's own cells at the foot stay out.
+        let ext = low - (cfg.fill_margin_factor + 0.5) * tol_mm;
+        if ext > 0.0 && low <= reach {
+            let e = bx.axis(a);
+            // Towards the plane: against its normal.
+            let down = if e.dot(&pl.normal) > 0.0 { -e } else { e };
+            let mut size = bx.size_mm;
+            size[a] += ext;
+            return OrientedBox {
+                rotation: bx.rotation,
+                center_mm: bx.center_mm + down * (ext / 2.0),
+                size_mm: size,
+            };
+        }
+    }
+    *bx
 }
 
 /// The side faces of a one-face candidate seen past its edges, as unclaimed grid cells.
