@@ -570,13 +570,14 @@ fn main() {
                         let best = v
                             .boxes
                             .iter()
-                            .map(|b| {
+                            .enumerate()
+                            .map(|(gi, b)| {
                                 let i = est_d[j]
                                     .as_ref()
                                     .map_or(0.0, |e| iou(&e.pose, &b.pose, IouMethod::Exact));
-                                (i, b.visib_fract, b.pose.size_mm)
+                                (i, b.visib_fract, b.pose.size_mm, gi)
                             })
-                            .fold((0.0, 0.0, nalgebra::Vector3::zeros()), |a, x| {
+                            .fold((0.0, 0.0, nalgebra::Vector3::zeros(), 0), |a, x| {
                                 if x.0 > a.0 {
                                     x
                                 } else {
@@ -611,7 +612,8 @@ fn main() {
                         }
                         sz.sort_by(|a, b| a.total_cmp(b));
                         println!(
-                            "  d3 {name} s{s} score {:.3} faces {} px {} est {:.3} obs {} iou3d {:.2} visib {:.2} pin {pin:.2} pout {pout:.2} pinhi {pin_hi:.2} dp {dp:.3} sz {:.0} {:.0} {:.0} gsz {:.0} {:.0} {:.0}",
+                            "  d3 {name} s{s} gti {} score {:.3} faces {} px {} est {:.3} obs {} iou3d {:.2} visib {:.2} pin {pin:.2} pout {pout:.2} pinhi {pin_hi:.2} dp {dp:.3} sz {:.0} {:.0} {:.0} gsz {:.0} {:.0} {:.0}",
+                            best.3,
                             d.score,
                             d.n_faces,
                             d.mask.count(),
