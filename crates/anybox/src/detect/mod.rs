@@ -492,7 +492,8 @@ pub struct DetectConfig {
     /// 48 views per set, mean AP@0.5 of the 15 rows of seeds 2026 / 7 / 11 against 0: 0.6555
     /// → 0.6582, AP@0.7 0.4977 → 0.5003; seeds 3 / 5, not used to choose it: 0.6364 → 0.6395,
     /// AP@0.7 0.4802 → 0.4814; 3.5: 0.6561. Filling down to the plane itself took in the
-    /// table at the foot: 0.6587 but AP@0.7 0.4945, and 0.6347 on seeds 3 / 5).
+    /// table at the foot: 0.6587 but AP@0.7 0.4945, and 0.6347 on seeds 3 / 5; stopping a
+    /// whole tolerance above it: 0.6549).
     pub fill_support_reach_factor: f64,
     /// Morphological opening of each output mask with a square of side `2 × mask_open_px + 1`
     /// px, before the side strips are added: lines and spurs thinner than that go, faces stay.
