@@ -34,10 +34,10 @@ pub(crate) enum Repeat {
 }
 
 /// Whether `a` repeats `b`'s size: each of `a`'s axes within `tiled_union_max_angle_deg` of
-/// one of `b`'s (per axis; [`crate::pipeline::tiled_union`] bounds the geodesic angle between the frames
-/// instead, which is stricter), two extent ratios within `repeat_split_tol` of 1 and the third either within
-/// that tolerance of a whole `k` in 2..=`repeat_split_max_parts` or below 1 − tolerance and at
-/// least `repeat_extend_min_ratio` (when that is above 0).
+/// one of `b`'s (per axis; [`crate::pipeline::tiled_union`] bounds the geodesic angle between
+/// the frames instead, which is stricter), two extent ratios within `repeat_split_tol` of 1
+/// and the third either within that tolerance of a whole `k` in 2..=`repeat_split_max_parts`
+/// or below 1 − tolerance and at least `repeat_extend_min_ratio` (when that is above 0).
 pub(crate) fn repeat_of(
     a: &OrientedBox,
     b: &OrientedBox,
