@@ -9,7 +9,9 @@
 //! by precision and recall against the GT mask it overlaps most). With `EST3D=1`, each GT line
 //! also gives `nz` (share of its mask without depth), `cc` (pieces of its mask), `cam` (the
 //! simulated camera) and `inter` (3D IoU of the estimate from the best detection's mask cut
-//! down to the GT mask: a bleeding mask scores well there, a partial one does not; with
+//! down to the GT mask: a bleeding mask scores well there, a partial one does not), `bst`
+//! (the share of that detection's pixels outside the GT mask that lie on no box: its bleed
+//! into the floor, pallet, table or shelf rather than into other boxes; with
 //! `BLEEDDIR=<dir>`, that best detection's mask is also written as `<set>_<view>_gt<k>.png`,
 //! a crop of the image with the mask's pixels inside the GT mask green, outside it red and
 //! the GT's pixels it missed blue);
@@ -991,6 +993,16 @@ fn main() {
                         let e =
                             anybox::pipeline::estimate_box(&v.depth, &v.intrinsics, &cut, &cfg_e);
                         print!(" inter {:.2}", i3(&e));
+                        // Where the bleed goes: share of the mask's pixels outside this GT
+                        // that lie on no box at all (floor, pallet, table, shelf).
+                        let (mut out_n, mut out_s) = (0usize, 0usize);
+                        for (i, (&m, &g)) in masks[j].data.iter().zip(&gtm[k].data).enumerate() {
+                            if m && !g {
+                                out_n += 1;
+                                out_s += (!gtm.iter().any(|o| o.data[i])) as usize;
+                            }
+                        }
+                        print!(" bst {:.2}", out_s as f64 / out_n.max(1) as f64);
                         if let Ok(dir) = std::env::var("BLEEDDIR") {
                             // Crop: mask pixels in the GT green, outside it red, GT only blue.
                             let mut img = v.rgb.clone();
