@@ -112,17 +112,19 @@ fn main() {
                     e.observed_axes.iter().filter(|o| **o).count(),
                 ));
             }
-            let scored: Vec<(OrientedBox, f64)> = rows
-                .iter()
-                .filter(|r| r.5 == 0)
-                .map(|r| (r.0, r.1))
-                .collect();
+            let primary: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].5 == 0).collect();
+            let scored: Vec<(OrientedBox, f64)> =
+                primary.iter().map(|&i| (rows[i].0, rows[i].1)).collect();
             let readings =
                 pipeline::alternative_readings(&scored, &f.depth, &f.intrinsics, &cfg.detect);
             for u in readings.unions {
                 rows.push((u.pose, u.score, f64::NAN, f64::NAN, '?', 2, 0, f64::NAN, 0));
             }
             for rd in readings.repeats {
+                // A reading that outranks its source lowers the source's score.
+                if rd.promoted {
+                    rows[primary[rd.source]].1 *= cfg.detect.repeat_split_score_factor;
+                }
                 let kind = match rd.kind {
                     pipeline::RepeatKind::Split => 3,
                     pipeline::RepeatKind::Extend => 4,

@@ -618,9 +618,13 @@ pub struct RepeatReading {
     /// The boxes of the new reading (the `k` copies in order along the split axis, or the one
     /// extended box), camera frame, mm, in the source's axes.
     pub parts: Vec<OrientedBox>,
-    /// The lower of the two estimates' scores times `repeat_split_score_factor`
-    /// ([`DetectConfig`](crate::detect::DetectConfig)).
+    /// The lower of the two estimates' scores, times `repeat_split_score_factor`
+    /// ([`DetectConfig`](crate::detect::DetectConfig)) unless `promoted`.
     pub score: f64,
+    /// The reading outranks its source (`repeat_promote_min_copies`): the source's score is
+    /// to be multiplied by `repeat_split_score_factor`, and the source becomes the
+    /// alternative (what [`crate::runner::run_detected_frame`] does).
+    pub promoted: bool,
 }
 
 /// Alternative readings for a frame's estimates from detected masks (`boxes`: pose and score
@@ -638,11 +642,19 @@ pub struct RepeatReading {
 /// much as the source to extend it. Per estimate, the
 /// highest-scoring such other one is used. Empty when `repeat_split_score_factor` is 0.
 ///
+/// The reading is [`RepeatReading::promoted`] above its source when at least
+/// `repeat_promote_min_copies` other estimates have the repeated one's size and none has the
+/// source's (sorted extents, each within `repeat_split_tol`).
+///
 /// Why: cartons on a pallet or a shelf are often of one size. Flush cartons of one colour whose
 /// joints the detector cannot see come out as one mask, two or three cartons long; a carton
 /// seen only in part (its depth hidden, or cut by the detector) comes out short. Single
 /// cartons of that size found elsewhere in the frame tell both apart. The source estimate
-/// stays; the new readings are returned as alternatives, scored below it.
+/// stays; the new readings are returned as alternatives, scored below it, except where the
+/// frame's other sizes make the source the odd one out: on a pallet of one product, an
+/// estimate of a size nothing else has, which reads as cartons of a size three others have,
+/// is more often a merge or a piece than a carton of its own (bench, pallets: see the
+/// README's detection section).
 pub fn repeat_readings(
     boxes: &[(OrientedBox, f64)],
     cfg: &crate::detect::DetectConfig,
@@ -651,6 +663,22 @@ pub fn repeat_readings(
     if cfg.repeat_split_score_factor <= 0.0 {
         return out;
     }
+    let sorted: Vec<[f64; 3]> = boxes
+        .iter()
+        .map(|(p, _)| {
+            let mut e = [p.size_mm.x, p.size_mm.y, p.size_mm.z];
+            e.sort_by(f64::total_cmp);
+            e
+        })
+        .collect();
+    let tol = cfg.repeat_split_tol.max(0.0);
+    // How many other estimates have estimate `i`'s size, turned any way.
+    let copies = |i: usize| {
+        (0..sorted.len())
+            .filter(|&j| j != i)
+            .filter(|&j| (0..3).all(|a| (sorted[j][a] / sorted[i][a] - 1.0).abs() <= tol))
+            .count()
+    };
     for (s, (ps, ss)) in boxes.iter().enumerate() {
         let mut best: Option<(usize, Repeat, f64)> = None;
         for (r, (pr, sr)) in boxes.iter().enumerate() {
@@ -707,12 +735,21 @@ pub fn repeat_readings(
                 (RepeatKind::Extend, vec![grown])
             }
         };
+        let promoted = cfg.repeat_promote_min_copies > 0
+            && copies(s) == 0
+            && copies(r) >= cfg.repeat_promote_min_copies as usize;
+        let factor = if promoted {
+            1.0
+        } else {
+            cfg.repeat_split_score_factor
+        };
         out.push(RepeatReading {
             kind,
             source: s,
             reference: r,
             parts,
-            score: ss.min(sr) * cfg.repeat_split_score_factor,
+            score: ss.min(sr) * factor,
+            promoted,
         });
     }
     out
@@ -923,6 +960,47 @@ mod tests {
                 .fold(0.0, f64::max);
             assert!(best > 0.999, "best IoU {best}");
         }
+    }
+
+    #[test]
+    fn a_repeat_reading_outranks_the_odd_one_out_among_cartons_of_one_size() {
+        let cfg = crate::detect::DetectConfig::default();
+        let (_, merged, other) = carton_row(3.0);
+        // More cartons of `other`'s size, in a row beside it, away from the merged row.
+        let copy = |k: f64| OrientedBox {
+            center_mm: other.center_mm + other.axis(0) * (400.0 * k),
+            ..other
+        };
+        let of_merged = |boxes: &[(OrientedBox, f64)]| {
+            let rd = repeat_readings(boxes, &cfg);
+            let mine: Vec<RepeatReading> = rd.into_iter().filter(|r| r.source == 0).collect();
+            assert_eq!(mine.len(), 1);
+            assert_eq!((mine[0].kind, mine[0].reference), (RepeatKind::Split, 1));
+            (mine[0].promoted, mine[0].score)
+        };
+        let mut frame = vec![(merged, 0.5), (other, 0.7), (copy(1.0), 0.6)];
+        // One other carton of the reference's size: the merged row keeps its rank.
+        let kept = 0.5 * cfg.repeat_split_score_factor;
+        assert_eq!(of_merged(&frame), (false, kept));
+        // Two: the copies outrank it, scored as the lower of the two estimates.
+        frame.push((copy(2.0), 0.6));
+        assert_eq!(of_merged(&frame), (true, 0.5));
+        // Another box of the merged row's size: it is not the odd one out.
+        let far = OrientedBox {
+            center_mm: merged.center_mm - other.axis(0) * 1500.0,
+            ..merged
+        };
+        assert_eq!(
+            of_merged(&[frame.clone(), vec![(far, 0.3)]].concat()),
+            (false, kept)
+        );
+        // Off.
+        let off = crate::detect::DetectConfig {
+            repeat_promote_min_copies: 0,
+            ..cfg.clone()
+        };
+        let rd = repeat_readings(&frame, &off);
+        assert!(rd.iter().all(|r| !r.promoted) && !rd.is_empty());
     }
 
     #[test]

@@ -149,7 +149,11 @@ pub fn run_frame(
 /// `extra`: the detector's ([`crate::detect::Detection::alternative`]), the unions, which
 /// also carry `"parts"` (the two detections' mask names), and the repeat readings, which carry
 /// `"split_of"` or `"extended_from"` and `"like"` (the source and the repeated detection's
-/// mask names); drop them where one reading per box is wanted.
+/// mask names); drop them where one reading per box is wanted. Where a repeat reading
+/// outranks its source ([`crate::pipeline::RepeatReading::promoted`]), the roles swap: the
+/// reading's boxes carry no `"alternative"` and the source carries `"alternative": true`
+/// and `"outranked": "split"` or `"extended"`, its score scaled by
+/// `detect.repeat_split_score_factor`.
 pub fn run_detected_frame(
     rgb: Option<&anybox_io::RgbImage>,
     depth: &DepthMap,
@@ -182,10 +186,11 @@ pub fn run_detected_frame(
             [("parts", parts)],
         ));
     }
+    let mut outranked = Vec::new();
     for rd in readings.repeats {
-        let key = match rd.kind {
-            crate::pipeline::RepeatKind::Split => "split_of",
-            crate::pipeline::RepeatKind::Extend => "extended_from",
+        let (key, read) = match rd.kind {
+            crate::pipeline::RepeatKind::Split => ("split_of", "split"),
+            crate::pipeline::RepeatKind::Extend => ("extended_from", "extended"),
         };
         let (source, like) = (name(idx[rd.source]), name(idx[rd.reference]));
         for part in &rd.parts {
@@ -193,8 +198,24 @@ pub fn run_detected_frame(
                 (key, serde_json::json!(source)),
                 ("like", serde_json::json!(like)),
             ];
-            alts.push(alternative_record(part, rd.score, time, keys));
+            let mut rec = alternative_record(part, rd.score, time, keys);
+            if rd.promoted {
+                rec.extra.remove("alternative");
+            }
+            alts.push(rec);
         }
+        if rd.promoted {
+            outranked.push((idx[rd.source], read));
+        }
+    }
+    // A reading that outranks its source makes the source the alternative.
+    for (i, read) in outranked {
+        let src = &mut out.estimates[i];
+        src.score *= config.detect.repeat_split_score_factor;
+        src.extra
+            .insert("alternative".into(), serde_json::json!(true));
+        src.extra
+            .insert("outranked".into(), serde_json::json!(read));
     }
     out.estimates.extend(alts);
     Ok(out)
@@ -446,8 +467,11 @@ mod tests {
     }
     /// A generated pallet (seed 2026, scene 11 of 24, as `detect_dev SEED=2026 ONLY=pallet
     /// VIEW=11` draws it) where two flush cartons of one size come out as one detection: the
-    /// run also returns the copies of another carton that the merged box repeats, flagged and
-    /// scored below both, and one copy is a carton the merged box misses.
+    /// run also returns the copies of another carton that the merged box repeats, and one copy
+    /// is a carton the merged box misses. Four other detections have that carton's size and
+    /// none the merged box's, so the copies outrank it and it becomes the alternative
+    /// (`repeat_promote_min_copies`); without that rule they are the alternatives, scored
+    /// below both.
     #[test]
     fn detected_frame_cuts_a_merged_pair_into_copies_of_a_carton() {
         use anybox_synth::{generate_view, Layout, NoiseModel, SynthConfig};
@@ -460,26 +484,48 @@ mod tests {
             ..SynthConfig::default()
         };
         let v = generate_view(&sc, 11, 0);
-        let out = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &Config::default())
-            .expect("a valid frame");
         let best = |b: &anybox_geom::OrientedBox| best_iou(&v, b);
-        let by_name = |n: &serde_json::Value| record_named(&out, n);
-        let mut found = false;
-        for r in out
-            .estimates
-            .iter()
-            .filter(|r| r.extra.contains_key("split_of"))
-        {
-            assert_eq!(r.extra.get("alternative"), Some(&serde_json::json!(true)));
-            let (src, like) = (by_name(&r.extra["split_of"]), by_name(&r.extra["like"]));
-            assert!(r.score < src.score && r.score < like.score);
-            let part = r.pose().unwrap(); // built from a valid pose
-            let whole = src.pose().unwrap(); // estimator output: valid
-                                             // Each copy lies inside the box it was cut from.
-            assert!(intersection_volume_mm3(&whole, &part) > 0.99 * part.volume_mm3());
-            found |= best(&part) > 0.9 && best(&whole) <= 0.5;
-        }
+        let alternative = Some(serde_json::json!(true));
+        // (copies that outrank their source, copies that find a carton the source misses)
+        let run = |config: &Config| {
+            let out = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, config)
+                .expect("a valid frame");
+            let by_name = |n: &serde_json::Value| record_named(&out, n);
+            let (mut promoted, mut found) = (0, false);
+            for r in out
+                .estimates
+                .iter()
+                .filter(|r| r.extra.contains_key("split_of"))
+            {
+                let (src, like) = (by_name(&r.extra["split_of"]), by_name(&r.extra["like"]));
+                if r.extra.get("alternative").is_none() {
+                    promoted += 1;
+                    assert_eq!(src.extra.get("alternative"), alternative.as_ref());
+                    assert_eq!(
+                        src.extra.get("outranked"),
+                        Some(&serde_json::json!("split"))
+                    );
+                    assert!(r.score > src.score && r.score <= like.score);
+                } else {
+                    assert!(r.score < src.score && r.score < like.score);
+                }
+                let part = r.pose().unwrap(); // built from a valid pose
+                let whole = src.pose().unwrap(); // estimator output: valid
+                                                 // Each copy lies inside the box it was cut from.
+                assert!(intersection_volume_mm3(&whole, &part) > 0.99 * part.volume_mm3());
+                found |= best(&part) > 0.9 && best(&whole) <= 0.5;
+            }
+            (promoted, found)
+        };
+        let (promoted, found) = run(&Config::default());
         assert!(found, "no copy finds a carton that its merged box misses");
+        assert!(promoted > 0, "the copies do not outrank the merged box");
+        let mut kept = Config::default();
+        kept.detect.repeat_promote_min_copies = 0;
+        assert_eq!(run(&kept), (0, true));
+        // Five other cartons of the copies' size asked for: this frame has four.
+        kept.detect.repeat_promote_min_copies = 5;
+        assert_eq!(run(&kept), (0, true));
         let mut off = Config::default();
         off.detect.repeat_split_score_factor = 0.0;
         let out0 = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &off).unwrap();
