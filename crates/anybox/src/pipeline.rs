@@ -644,7 +644,8 @@ pub struct RepeatReading {
 ///
 /// The reading is [`RepeatReading::promoted`] above its source when at least
 /// `repeat_promote_min_copies` other estimates have the repeated one's size and none has the
-/// source's (sorted extents, each within `repeat_split_tol`).
+/// source's (sorted extents, each within `repeat_split_tol`; estimates that share more than
+/// `tiled_union_max_shared` of the smaller one's volume are one box, not copies).
 ///
 /// Why: cartons on a pallet or a shelf are often of one size. Flush cartons of one colour whose
 /// joints the detector cannot see come out as one mask, two or three cartons long; a carton
@@ -663,22 +664,9 @@ pub fn repeat_readings(
     if cfg.repeat_split_score_factor <= 0.0 {
         return out;
     }
-    let sorted: Vec<[f64; 3]> = boxes
-        .iter()
-        .map(|(p, _)| {
-            let mut e = [p.size_mm.x, p.size_mm.y, p.size_mm.z];
-            e.sort_by(f64::total_cmp);
-            e
-        })
-        .collect();
-    let tol = cfg.repeat_split_tol.max(0.0);
-    // How many other estimates have estimate `i`'s size, turned any way.
-    let copies = |i: usize| {
-        (0..sorted.len())
-            .filter(|&j| j != i)
-            .filter(|&j| (0..3).all(|a| (sorted[j][a] / sorted[i][a] - 1.0).abs() <= tol))
-            .count()
-    };
+    let poses: Vec<OrientedBox> = boxes.iter().map(|(p, _)| *p).collect();
+    let copies =
+        crate::repeat::same_size_counts(&poses, cfg.repeat_split_tol, cfg.tiled_union_max_shared);
     for (s, (ps, ss)) in boxes.iter().enumerate() {
         let mut best: Option<(usize, Repeat, f64)> = None;
         for (r, (pr, sr)) in boxes.iter().enumerate() {
@@ -736,8 +724,8 @@ pub fn repeat_readings(
             }
         };
         let promoted = cfg.repeat_promote_min_copies > 0
-            && copies(s) == 0
-            && copies(r) >= cfg.repeat_promote_min_copies as usize;
+            && copies[s] == 0
+            && copies[r] >= cfg.repeat_promote_min_copies as usize;
         let factor = if promoted {
             1.0
         } else {
@@ -753,6 +741,49 @@ pub fn repeat_readings(
         });
     }
     out
+}
+
+/// The scores of a frame's estimates from detected masks (`boxes`: pose and score of each,
+/// score in 0..1; the alternative readings left out), raised where the frame agrees on their
+/// size: an estimate that at least `repeat_boost_min_copies` others measure alike (sorted
+/// extents, each within `repeat_split_tol`), and whose middle extent is at least
+/// `repeat_boost_min_aspect` of its longest, itself at least `repeat_boost_min_extent_mm`,
+/// has its odds `s / (1 − s)` multiplied by
+/// `repeat_boost_odds` (the order among the raised ones kept, none reaching 1). The others
+/// keep their scores.
+///
+/// Why: on a pallet or a shelf of one product, three estimates of one size are seldom all
+/// wrong, and a merge of flush cartons or a piece of one measures like nothing else in the
+/// frame. The detector's score sees one mask at a time and cannot tell them apart.
+pub fn size_consensus_scores(
+    boxes: &[(OrientedBox, f64)],
+    cfg: &crate::detect::DetectConfig,
+) -> Vec<f64> {
+    let b = cfg.repeat_boost_odds;
+    // (A NaN factor disables it too.)
+    if cfg.repeat_boost_min_copies == 0 || b.is_nan() || b <= 1.0 {
+        return boxes.iter().map(|(_, s)| *s).collect();
+    }
+    let poses: Vec<OrientedBox> = boxes.iter().map(|(p, _)| *p).collect();
+    let copies =
+        crate::repeat::same_size_counts(&poses, cfg.repeat_split_tol, cfg.tiled_union_max_shared);
+    boxes
+        .iter()
+        .zip(copies)
+        .map(|((p, s), n)| {
+            let mut e = [p.size_mm.x, p.size_mm.y, p.size_mm.z];
+            e.sort_by(f64::total_cmp);
+            let raised = n >= cfg.repeat_boost_min_copies as usize
+                && e[1] >= cfg.repeat_boost_min_aspect * e[2]
+                && e[2] >= cfg.repeat_boost_min_extent_mm
+                && (0.0..1.0).contains(s);
+            if raised {
+                s * b / (1.0 + s * (b - 1.0))
+            } else {
+                *s
+            }
+        })
+        .collect()
 }
 
 /// Every alternative reading that a frame's estimates from detected masks get
@@ -1001,6 +1032,55 @@ mod tests {
         };
         let rd = repeat_readings(&frame, &off);
         assert!(rd.iter().all(|r| !r.promoted) && !rd.is_empty());
+    }
+
+    #[test]
+    fn estimates_of_a_size_the_frame_repeats_score_higher() {
+        let cfg = crate::detect::DetectConfig::default();
+        let rot = Rotation3::from_euler_angles(0.3, -0.2, 0.5);
+        // A box of `size_mm` (any order) at `x_mm` along a row 2 m from the camera.
+        let at = |x_mm: f64, size_mm: [f64; 3]| OrientedBox {
+            rotation: rot,
+            center_mm: Vector3::new(x_mm, 0.0, 2000.0),
+            size_mm: Vector3::from(size_mm),
+        };
+        let carton = [300.0, 250.0, 180.0];
+        // The odds s / (1 − s) times `repeat_boost_odds`.
+        let b = cfg.repeat_boost_odds;
+        let raised = |s: f64| s * b / (1.0 + s * (b - 1.0));
+        let frame = [
+            (at(0.0, carton), 0.4),
+            (at(400.0, [250.0, 300.0, 180.0]), 0.6),
+            // 8 % off along one extent: still the same size.
+            (at(800.0, [180.0, 250.0, 324.0]), 0.2),
+            (at(1200.0, [600.0, 250.0, 180.0]), 0.5),
+        ];
+        let got = size_consensus_scores(&frame, &cfg);
+        let want = [raised(0.4), raised(0.6), raised(0.2), 0.5];
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 1e-12, "{got:?} against {want:?}");
+        }
+        // Raised odds, not a cap: the order among the raised ones stays, below 1.
+        assert!(got[1] > got[0] && got[0] > got[2] && got[1] < 1.0);
+        // Two of a size are not enough, and two estimates of one box count once (as one
+        // other carton for the third).
+        let same_box = (at(30.0, carton), 0.3);
+        let two = [frame[0], frame[1], same_box];
+        assert_eq!(size_consensus_scores(&two, &cfg), vec![0.4, 0.6, 0.3]);
+        // Bars (a shelf's uprights) and small pieces are left alone, however many.
+        for size in [[60.0, 60.0, 300.0], [45.0, 42.0, 50.0]] {
+            let bars: Vec<(OrientedBox, f64)> = (0..4)
+                .map(|i| (at(400.0 * f64::from(i), size), 0.5))
+                .collect();
+            assert!(size_consensus_scores(&bars, &cfg).iter().all(|&s| s == 0.5));
+        }
+        // Off.
+        let off = crate::detect::DetectConfig {
+            repeat_boost_min_copies: 0,
+            ..cfg.clone()
+        };
+        let plain: Vec<f64> = frame.iter().map(|f| f.1).collect();
+        assert_eq!(size_consensus_scores(&frame, &off), plain);
     }
 
     #[test]

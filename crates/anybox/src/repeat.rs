@@ -4,7 +4,8 @@
 //! In: two oriented boxes (camera frame, mm) and the tolerances of
 //! [`DetectConfig`](crate::detect::DetectConfig) (`tiled_union_max_angle_deg`,
 //! `repeat_split_tol`, `repeat_split_max_parts`, `repeat_extend_min_ratio`).
-//! Out: [`Repeat`], or nothing.
+//! Out: [`Repeat`], or nothing; and, for a frame's boxes, how many others share each one's
+//! size ([`same_size_counts`]).
 //!
 //! Two stages ask the same question, so they share this one answer: the detector (stage 2)
 //! splits a coarse candidate made of copies of a whole carton inside it
@@ -22,6 +23,38 @@ pub(crate) fn is_copies_of(
     cfg: &crate::detect::DetectConfig,
 ) -> bool {
     matches!(repeat_of(a, b, cfg), Some(Repeat::Copies { .. }))
+}
+
+/// For each box, how many other boxes have its size turned any way (sorted extents, each
+/// within `tol`, relative, of the box's): counted greedily in order, each sharing at most
+/// `max_shared` of the smaller one's volume with the box and with every box already counted,
+/// since two estimates of one carton are not two cartons.
+pub(crate) fn same_size_counts(boxes: &[OrientedBox], tol: f64, max_shared: f64) -> Vec<usize> {
+    let sorted: Vec<[f64; 3]> = boxes
+        .iter()
+        .map(|b| {
+            let mut e = [b.size_mm.x, b.size_mm.y, b.size_mm.z];
+            e.sort_by(f64::total_cmp);
+            e
+        })
+        .collect();
+    let tol = tol.max(0.0);
+    let apart = |i: usize, j: usize| {
+        let shared = anybox_geom::iou::intersection_volume_mm3(&boxes[i], &boxes[j]);
+        shared <= max_shared * boxes[i].volume_mm3().min(boxes[j].volume_mm3())
+    };
+    (0..sorted.len())
+        .map(|i| {
+            let mut counted: Vec<usize> = Vec::new();
+            for j in (0..sorted.len()).filter(|&j| j != i) {
+                let alike = (0..3).all(|a| (sorted[j][a] / sorted[i][a] - 1.0).abs() <= tol);
+                if alike && apart(i, j) && counted.iter().all(|&k| apart(j, k)) {
+                    counted.push(j);
+                }
+            }
+            counted.len()
+        })
+        .collect()
 }
 
 /// How one box repeats another's size ([`repeat_of`]).

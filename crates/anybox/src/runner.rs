@@ -209,13 +209,24 @@ pub fn run_detected_frame(
         }
     }
     // A reading that outranks its source makes the source the alternative.
-    for (i, read) in outranked {
+    for &(i, read) in &outranked {
         let src = &mut out.estimates[i];
         src.score *= config.detect.repeat_split_score_factor;
         src.extra
             .insert("alternative".into(), serde_json::json!(true));
         src.extra
             .insert("outranked".into(), serde_json::json!(read));
+    }
+    // Detections whose size the frame repeats rank higher.
+    let (kept, boxes): (Vec<usize>, Vec<(anybox_geom::OrientedBox, f64)>) = idx
+        .iter()
+        .zip(scored)
+        .filter(|(i, _)| !outranked.iter().any(|(o, _)| o == *i))
+        .map(|(&i, b)| (i, b))
+        .unzip();
+    let raised = crate::pipeline::size_consensus_scores(&boxes, &config.detect);
+    for (i, s) in kept.into_iter().zip(raised) {
+        out.estimates[i].score = s;
     }
     out.estimates.extend(alts);
     Ok(out)
@@ -533,5 +544,31 @@ mod tests {
             .estimates
             .iter()
             .all(|r| !r.extra.contains_key("split_of")));
+        // The five cartons of one size rank higher than without the size rule
+        // (`repeat_boost_min_copies`); the other detections keep their scores.
+        let mut plain = Config::default();
+        plain.detect.repeat_boost_min_copies = 0;
+        let out1 = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &plain).unwrap();
+        let boosted = Config::default();
+        let out2 = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &boosted).unwrap();
+        let primary = |o: &RunOutput| -> Vec<(serde_json::Value, f64)> {
+            o.estimates
+                .iter()
+                .filter(|r| r.extra.get("alternative").is_none())
+                .filter_map(|r| Some((r.extra.get("mask")?.clone(), r.score)))
+                .collect()
+        };
+        let (p1, p2) = (primary(&out1), primary(&out2));
+        assert_eq!(p1.len(), p2.len());
+        let raised = p1
+            .iter()
+            .zip(&p2)
+            .filter(|((n1, s1), (n2, s2))| {
+                assert_eq!(n1, n2);
+                assert!(s2 >= s1);
+                s2 > s1
+            })
+            .count();
+        assert_eq!(raised, 5);
     }
 }

@@ -406,6 +406,28 @@ pub struct DetectConfig {
     /// shelves −0.002 to +0.004, tables unchanged; 1 and 3 gained less, 1 lowered the
     /// shelves).
     pub repeat_promote_min_copies: u32,
+    /// An estimate whose size at least this many other estimates of the frame have (sorted
+    /// extents within `repeat_split_tol`, the outranked ones left out) scores higher: its
+    /// odds `s / (1 − s)` times `repeat_boost_odds`
+    /// ([`crate::pipeline::size_consensus_scores`]). Three cartons that measure alike are
+    /// seldom all wrong; on a pallet this ranks them above the frame's merges and pieces, and
+    /// above other frames' doubtful boxes. 0 disables. Default 2 (bench, 48 views per set,
+    /// AP@0.5 against 0: pallets 0.667 / 0.579 / 0.608 → 0.696 / 0.594 / 0.630 on seeds 2026
+    /// / 7 / 11 and 0.596 / 0.486 → 0.617 / 0.483 on seeds 3 / 5, shelves −0.005 to +0.001,
+    /// tables unchanged; 3: pallets 0.698 / 0.584 on seeds 2026 / 7).
+    pub repeat_boost_min_copies: u32,
+    /// See `repeat_boost_min_copies`; 1 disables. Default 3 (mean AP@0.5 of the 15 rows of
+    /// seeds 2026 / 7 / 11 0.6647; 2: 0.6638; 5: 0.6655, but the shelves of seed 7 0.522 →
+    /// 0.516).
+    pub repeat_boost_odds: f64,
+    /// ... only for boxes whose middle extent is at least this fraction of their longest: a
+    /// shelf's rack uprights, 60 × 60 × 300 mm bars seen between boards, repeat one another
+    /// as well. Default 0.35.
+    pub repeat_boost_min_aspect: f64,
+    /// ... and whose longest extent is at least this, mm: pieces of one small object and
+    /// small clutter measure alike within `repeat_split_tol` by chance (in seed 2026's table
+    /// view 31 of the bench, three 45 mm pieces of one box). Default 200.
+    pub repeat_boost_min_extent_mm: f64,
     /// A surface-level candidate splits into its colour-level candidates when at least this
     /// many seam cells lie next to two of them with coplanar faces (flush cartons). Default 9
     /// (bench, 48 views per set, seeds 2026 / 7 / 11, mean AP@0.5 of the 15 rows against 6,
@@ -739,6 +761,10 @@ impl Default for DetectConfig {
             repeat_extend_min_ratio: 0.15,
             repeat_split_min_reference_ratio: 0.5,
             repeat_promote_min_copies: 2,
+            repeat_boost_min_copies: 2,
+            repeat_boost_odds: 3.0,
+            repeat_boost_min_aspect: 0.35,
+            repeat_boost_min_extent_mm: 200.0,
             split_min_seam_cells: 9,
             split_flap_check: true,
             split_flap_max_colour_delta: 40.0,
