@@ -153,7 +153,8 @@ pub fn run_frame(
 /// outranks its source ([`crate::pipeline::RepeatReading::promoted`]), the roles swap: the
 /// reading's boxes carry no `"alternative"` and the source carries `"alternative": true`
 /// and `"outranked": "split"` or `"extended"`, its score scaled by
-/// `detect.repeat_split_score_factor`.
+/// `detect.repeat_split_score_factor`. Last, the detections that the frame's other
+/// detections measure alike score higher ([`crate::pipeline::size_consensus_scores`]).
 pub fn run_detected_frame(
     rgb: Option<&anybox_io::RgbImage>,
     depth: &DepthMap,
