@@ -120,13 +120,12 @@ fn main() {
             for u in readings.unions {
                 rows.push((u.pose, u.score, f64::NAN, f64::NAN, '?', 2, 0, f64::NAN, 0));
             }
-            let mut outranked = Vec::new();
+            // Outranked sources scaled down, repeated sizes raised (as the runner does).
+            let ranked = pipeline::ranked_scores(&scored, &readings.repeats, &cfg.detect);
+            for (&i, s) in primary.iter().zip(ranked) {
+                rows[i].1 = s;
+            }
             for rd in readings.repeats {
-                // A reading that outranks its source lowers the source's score.
-                if rd.promoted {
-                    rows[primary[rd.source]].1 *= cfg.detect.repeat_split_score_factor;
-                    outranked.push(primary[rd.source]);
-                }
                 let kind = match rd.kind {
                     pipeline::RepeatKind::Split => 3,
                     pipeline::RepeatKind::Extend => 4,
@@ -144,20 +143,6 @@ fn main() {
                         0,
                     ));
                 }
-            }
-            // Detections whose size the frame repeats rank higher (as the runner does).
-            let kept: Vec<usize> = primary
-                .iter()
-                .copied()
-                .filter(|i| !outranked.contains(i))
-                .collect();
-            let boxes: Vec<(OrientedBox, f64)> =
-                kept.iter().map(|&i| (rows[i].0, rows[i].1)).collect();
-            for (i, s) in kept
-                .into_iter()
-                .zip(pipeline::size_consensus_scores(&boxes, &cfg.detect))
-            {
-                rows[i].1 = s;
             }
             // Interpenetration with the frame's other estimates: the largest share of this
             // one's volume inside a higher-scored one, and how many others lie at least 60 %

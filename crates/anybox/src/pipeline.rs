@@ -771,8 +771,7 @@ pub fn size_consensus_scores(
         .iter()
         .zip(copies)
         .map(|((p, s), n)| {
-            let mut e = [p.size_mm.x, p.size_mm.y, p.size_mm.z];
-            e.sort_by(f64::total_cmp);
+            let e = crate::repeat::sorted_extents_mm(p);
             let raised = n >= cfg.repeat_boost_min_copies as usize
                 && e[1] >= cfg.repeat_boost_min_aspect * e[2]
                 && e[2] >= cfg.repeat_boost_min_extent_mm
@@ -784,6 +783,39 @@ pub fn size_consensus_scores(
             }
         })
         .collect()
+}
+
+/// The scores a frame's estimates from detected masks end with (`boxes`: pose and score of
+/// each, as given to [`repeat_readings`]; `repeats`: what it returned for them): a source
+/// that a [`RepeatReading::promoted`] reading outranks is scaled by
+/// `repeat_split_score_factor`, and the others go through [`size_consensus_scores`]
+/// together, the outranked ones left out. What [`crate::runner::run_detected_frame`] gives
+/// its detections.
+pub fn ranked_scores(
+    boxes: &[(OrientedBox, f64)],
+    repeats: &[RepeatReading],
+    cfg: &crate::detect::DetectConfig,
+) -> Vec<f64> {
+    let mut outranked = vec![false; boxes.len()];
+    for rd in repeats.iter().filter(|rd| rd.promoted) {
+        if let Some(o) = outranked.get_mut(rd.source) {
+            *o = true;
+        }
+    }
+    let (kept, rest): (Vec<usize>, Vec<(OrientedBox, f64)>) = boxes
+        .iter()
+        .enumerate()
+        .filter(|&(k, _)| !outranked[k])
+        .map(|(k, b)| (k, *b))
+        .unzip();
+    let mut scores: Vec<f64> = boxes
+        .iter()
+        .map(|(_, s)| s * cfg.repeat_split_score_factor)
+        .collect();
+    for (k, s) in kept.into_iter().zip(size_consensus_scores(&rest, cfg)) {
+        scores[k] = s;
+    }
+    scores
 }
 
 /// Every alternative reading that a frame's estimates from detected masks get
@@ -1032,6 +1064,36 @@ mod tests {
         };
         let rd = repeat_readings(&frame, &off);
         assert!(rd.iter().all(|r| !r.promoted) && !rd.is_empty());
+    }
+
+    #[test]
+    fn ranked_scores_lower_an_outranked_source_and_raise_the_rest_by_size() {
+        let cfg = crate::detect::DetectConfig::default();
+        let (_, merged, other) = carton_row(3.0);
+        let copy = |k: f64| OrientedBox {
+            center_mm: other.center_mm + other.axis(0) * (400.0 * k),
+            ..other
+        };
+        let frame = [
+            (merged, 0.5),
+            (other, 0.7),
+            (copy(1.0), 0.6),
+            (copy(2.0), 0.6),
+        ];
+        let rd = repeat_readings(&frame, &cfg);
+        assert!(rd.iter().any(|r| r.promoted && r.source == 0));
+        let got = ranked_scores(&frame, &rd, &cfg);
+        // The merged row scaled down; the three cartons as `size_consensus_scores` raises
+        // them among themselves.
+        let rest = size_consensus_scores(&frame[1..], &cfg);
+        assert_eq!(got[0], 0.5 * cfg.repeat_split_score_factor);
+        assert_eq!(&got[1..], &rest[..]);
+        assert!(rest.iter().zip(&frame[1..]).all(|(r, f)| *r > f.1));
+        // Nothing promoted: the consensus alone, over every estimate.
+        assert_eq!(
+            ranked_scores(&frame, &[], &cfg),
+            size_consensus_scores(&frame, &cfg)
+        );
     }
 
     #[test]

@@ -25,19 +25,19 @@ pub(crate) fn is_copies_of(
     matches!(repeat_of(a, b, cfg), Some(Repeat::Copies { .. }))
 }
 
+/// A box's extents, mm, shortest first: its size whichever way it is turned.
+pub(crate) fn sorted_extents_mm(b: &OrientedBox) -> [f64; 3] {
+    let mut e = [b.size_mm.x, b.size_mm.y, b.size_mm.z];
+    e.sort_by(f64::total_cmp);
+    e
+}
+
 /// For each box, how many other boxes have its size turned any way (sorted extents, each
 /// within `tol`, relative, of the box's): counted greedily in order, each sharing at most
 /// `max_shared` of the smaller one's volume with the box and with every box already counted,
 /// since two estimates of one carton are not two cartons.
 pub(crate) fn same_size_counts(boxes: &[OrientedBox], tol: f64, max_shared: f64) -> Vec<usize> {
-    let sorted: Vec<[f64; 3]> = boxes
-        .iter()
-        .map(|b| {
-            let mut e = [b.size_mm.x, b.size_mm.y, b.size_mm.z];
-            e.sort_by(f64::total_cmp);
-            e
-        })
-        .collect();
+    let sorted: Vec<[f64; 3]> = boxes.iter().map(sorted_extents_mm).collect();
     let tol = tol.max(0.0);
     let apart = |i: usize, j: usize| {
         let shared = anybox_geom::iou::intersection_volume_mm3(&boxes[i], &boxes[j]);

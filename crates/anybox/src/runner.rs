@@ -154,7 +154,7 @@ pub fn run_frame(
 /// reading's boxes carry no `"alternative"` and the source carries `"alternative": true`
 /// and `"outranked": "split"` or `"extended"`, its score scaled by
 /// `detect.repeat_split_score_factor`. Last, the detections that the frame's other
-/// detections measure alike score higher ([`crate::pipeline::size_consensus_scores`]).
+/// detections measure alike score higher ([`crate::pipeline::ranked_scores`]).
 pub fn run_detected_frame(
     rgb: Option<&anybox_io::RgbImage>,
     depth: &DepthMap,
@@ -187,11 +187,11 @@ pub fn run_detected_frame(
             [("parts", parts)],
         ));
     }
-    let mut outranked = Vec::new();
-    for rd in readings.repeats {
-        let (key, read) = match rd.kind {
-            crate::pipeline::RepeatKind::Split => ("split_of", "split"),
-            crate::pipeline::RepeatKind::Extend => ("extended_from", "extended"),
+    let ranked = crate::pipeline::ranked_scores(&scored, &readings.repeats, &config.detect);
+    for rd in &readings.repeats {
+        let key = match rd.kind {
+            crate::pipeline::RepeatKind::Split => "split_of",
+            crate::pipeline::RepeatKind::Extend => "extended_from",
         };
         let (source, like) = (name(idx[rd.source]), name(idx[rd.reference]));
         for part in &rd.parts {
@@ -205,28 +205,21 @@ pub fn run_detected_frame(
             }
             alts.push(rec);
         }
-        if rd.promoted {
-            outranked.push((idx[rd.source], read));
-        }
     }
     // A reading that outranks its source makes the source the alternative.
-    for &(i, read) in &outranked {
-        let src = &mut out.estimates[i];
-        src.score *= config.detect.repeat_split_score_factor;
+    for rd in readings.repeats.iter().filter(|rd| rd.promoted) {
+        let read = match rd.kind {
+            crate::pipeline::RepeatKind::Split => "split",
+            crate::pipeline::RepeatKind::Extend => "extended",
+        };
+        let src = &mut out.estimates[idx[rd.source]];
         src.extra
             .insert("alternative".into(), serde_json::json!(true));
         src.extra
             .insert("outranked".into(), serde_json::json!(read));
     }
-    // Detections whose size the frame repeats rank higher.
-    let (kept, boxes): (Vec<usize>, Vec<(anybox_geom::OrientedBox, f64)>) = idx
-        .iter()
-        .zip(scored)
-        .filter(|(i, _)| !outranked.iter().any(|(o, _)| o == *i))
-        .map(|(&i, b)| (i, b))
-        .unzip();
-    let raised = crate::pipeline::size_consensus_scores(&boxes, &config.detect);
-    for (i, s) in kept.into_iter().zip(raised) {
+    // Outranked sources scaled down; detections whose size the frame repeats ranked higher.
+    for (&i, s) in idx.iter().zip(ranked) {
         out.estimates[i].score = s;
     }
     out.estimates.extend(alts);
