@@ -1025,15 +1025,27 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_repeat_reading_outranks_the_odd_one_out_among_cartons_of_one_size() {
-        let cfg = crate::detect::DetectConfig::default();
+    /// The merged row of `carton_row(3.0)` (score 0.5), the carton beside it (0.7) and two
+    /// more cartons of that size in a row beside it, away from the merged row (0.6 each).
+    fn merged_row_among_cartons() -> [(OrientedBox, f64); 4] {
         let (_, merged, other) = carton_row(3.0);
-        // More cartons of `other`'s size, in a row beside it, away from the merged row.
         let copy = |k: f64| OrientedBox {
             center_mm: other.center_mm + other.axis(0) * (400.0 * k),
             ..other
         };
+        [
+            (merged, 0.5),
+            (other, 0.7),
+            (copy(1.0), 0.6),
+            (copy(2.0), 0.6),
+        ]
+    }
+
+    #[test]
+    fn a_repeat_reading_outranks_the_odd_one_out_among_cartons_of_one_size() {
+        let cfg = crate::detect::DetectConfig::default();
+        let all = merged_row_among_cartons();
+        let (merged, other) = (all[0].0, all[1].0);
         let of_merged = |boxes: &[(OrientedBox, f64)]| {
             let rd = repeat_readings(boxes, &cfg);
             let mine: Vec<RepeatReading> = rd.into_iter().filter(|r| r.source == 0).collect();
@@ -1041,12 +1053,11 @@ mod tests {
             assert_eq!((mine[0].kind, mine[0].reference), (RepeatKind::Split, 1));
             (mine[0].promoted, mine[0].score)
         };
-        let mut frame = vec![(merged, 0.5), (other, 0.7), (copy(1.0), 0.6)];
         // One other carton of the reference's size: the merged row keeps its rank.
         let kept = 0.5 * cfg.repeat_split_score_factor;
-        assert_eq!(of_merged(&frame), (false, kept));
+        assert_eq!(of_merged(&all[..3]), (false, kept));
         // Two: the copies outrank it, scored as the lower of the two estimates.
-        frame.push((copy(2.0), 0.6));
+        let frame = all.to_vec();
         assert_eq!(of_merged(&frame), (true, 0.5));
         // Another box of the merged row's size: it is not the odd one out.
         let far = OrientedBox {
@@ -1069,17 +1080,7 @@ mod tests {
     #[test]
     fn ranked_scores_lower_an_outranked_source_and_raise_the_rest_by_size() {
         let cfg = crate::detect::DetectConfig::default();
-        let (_, merged, other) = carton_row(3.0);
-        let copy = |k: f64| OrientedBox {
-            center_mm: other.center_mm + other.axis(0) * (400.0 * k),
-            ..other
-        };
-        let frame = [
-            (merged, 0.5),
-            (other, 0.7),
-            (copy(1.0), 0.6),
-            (copy(2.0), 0.6),
-        ];
+        let frame = merged_row_among_cartons();
         let rd = repeat_readings(&frame, &cfg);
         assert!(rd.iter().any(|r| r.promoted && r.source == 0));
         let got = ranked_scores(&frame, &rd, &cfg);
