@@ -102,7 +102,7 @@ fn main() {
                 let faces = m.name.split('(').nth(1).and_then(|x| x.chars().next());
                 rows.push((
                     e.pose,
-                    e.score * m.score,
+                    pipeline::detection_score(m.score, m.faces, &e, &cfg.detect),
                     m.score,
                     e.score,
                     faces.unwrap_or('?'),

@@ -785,6 +785,26 @@ pub fn size_consensus_scores(
         .collect()
 }
 
+/// The score of an estimate from a detected mask: the estimator's score times the mask's,
+/// times `detect.one_face_inferred_factor` (at most 1 in all) where the mask is a one-face
+/// detection of the built-in detector (`faces`, `None` for caller-side masks) and the
+/// estimate infers exactly one extent from the scene (two of its
+/// [`BoxEstimate::observed_axes`]).
+pub fn detection_score(
+    mask_score: f64,
+    faces: Option<u8>,
+    est: &BoxEstimate,
+    cfg: &crate::detect::DetectConfig,
+) -> f64 {
+    let s = est.score * mask_score;
+    let inferred_one = est.observed_axes.iter().filter(|o| !**o).count() == 1;
+    if faces == Some(1) && inferred_one && cfg.one_face_inferred_factor > 1.0 {
+        (s * cfg.one_face_inferred_factor).min(1.0)
+    } else {
+        s
+    }
+}
+
 /// The scores a frame's estimates from detected masks end with (`boxes`: pose and score of
 /// each, as given to [`repeat_readings`]; `repeats`: what it returned for them): a source
 /// that a [`RepeatReading::promoted`] reading outranks is scaled by
@@ -1095,6 +1115,48 @@ mod tests {
             ranked_scores(&frame, &[], &cfg),
             size_consensus_scores(&frame, &cfg)
         );
+    }
+
+    #[test]
+    fn one_face_detections_with_an_inferred_thickness_score_higher() {
+        let cfg = crate::detect::DetectConfig::default();
+        let f = cfg.one_face_inferred_factor;
+        assert!(f > 1.0);
+        let est = |score: f64, observed_axes: [bool; 3]| BoxEstimate {
+            pose: OrientedBox {
+                rotation: Rotation3::identity(),
+                center_mm: Vector3::new(0.0, 0.0, 1000.0),
+                size_mm: Vector3::new(200.0, 150.0, 100.0),
+            },
+            score,
+            observed_axes,
+            iterations: 1,
+            stopped_early: false,
+            pose_calls: 1,
+            depth_penalty: 0.0,
+        };
+        let inferred = est(0.5, [true, false, true]);
+        // One face seen, the thickness inferred: raised, at most to 1.
+        assert_eq!(detection_score(0.4, Some(1), &inferred, &cfg), 0.2 * f);
+        assert_eq!(
+            detection_score(0.9, Some(1), &est(0.9, [false, true, true]), &cfg),
+            1.0
+        );
+        // Two faces, caller-side masks, every extent seen, or two inferred: the product.
+        assert_eq!(detection_score(0.4, Some(2), &inferred, &cfg), 0.2);
+        assert_eq!(detection_score(0.4, None, &inferred, &cfg), 0.2);
+        assert_eq!(
+            detection_score(0.4, Some(1), &est(0.5, [true; 3]), &cfg),
+            0.2
+        );
+        let two_inferred = est(0.5, [true, false, false]);
+        assert_eq!(detection_score(0.4, Some(1), &two_inferred, &cfg), 0.2);
+        // 1 turns it off.
+        let off = crate::detect::DetectConfig {
+            one_face_inferred_factor: 1.0,
+            ..cfg.clone()
+        };
+        assert_eq!(detection_score(0.4, Some(1), &inferred, &off), 0.2);
     }
 
     #[test]

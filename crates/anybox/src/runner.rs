@@ -94,7 +94,8 @@ pub fn to_record(
     }
 }
 
-/// Estimates every box of one frame; records carry `score × mask score`, and those of
+/// Estimates every box of one frame; records carry `score × mask score` (raised for some
+/// one-face detections: [`crate::pipeline::detection_score`]), and those of
 /// alternative readings ([`InstanceMask::alternative`]) `"alternative": true`.
 pub fn run_frame(
     depth: &DepthMap,
@@ -118,7 +119,8 @@ pub fn run_frame(
         match r {
             Ok(est) => {
                 let mut rec = to_record(0, 0, &est, time_s, None, None);
-                rec.score *= m.score;
+                rec.score =
+                    crate::pipeline::detection_score(m.score, m.faces, &est, &config.detect);
                 rec.extra.insert("mask".into(), serde_json::json!(m.name));
                 if m.alternative {
                     rec.extra

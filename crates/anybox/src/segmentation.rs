@@ -90,6 +90,9 @@ pub struct InstanceMask {
     /// carries `"alternative": true`, and it gives no hidden extents to its neighbours
     /// ([`crate::pipeline::estimate_frame_with_alternatives`]).
     pub alternative: bool,
+    /// Visible faces the built-in detector grouped into this box
+    /// ([`crate::detect::Detection::n_faces`]); `None` for caller-side masks.
+    pub faces: Option<u8>,
 }
 
 /// Loads the instance masks of one `width`×`height` px frame from a caller-side source. Every
@@ -128,6 +131,7 @@ pub fn load_masks(
                         score: 1.0,
                         name,
                         alternative: false,
+                        faces: None,
                     });
                 }
             }
@@ -139,6 +143,7 @@ pub fn load_masks(
                     score: 1.0,
                     name: p.display().to_string(),
                     alternative: false,
+                    faces: None,
                 });
             }
         }
@@ -152,6 +157,7 @@ pub fn load_masks(
                     score: d.score,
                     name: format!("{} detection {i}", p.display()),
                     alternative: false,
+                    faces: None,
                 });
             }
         }
@@ -181,6 +187,7 @@ pub fn detect_masks(
                 format!("detection {i} ({} faces)", d.n_faces)
             },
             alternative: d.alternative,
+            faces: Some(d.n_faces),
         })
         .collect())
 }

@@ -428,6 +428,19 @@ pub struct DetectConfig {
     /// small clutter measure alike within `repeat_split_tol` by chance (in seed 2026's table
     /// view 31 of the bench, three 45 mm pieces of one box). Default 200.
     pub repeat_boost_min_extent_mm: f64,
+    /// The estimate of a one-face detection whose hidden extent the estimator inferred (one
+    /// axis unobserved: it saw one face and took the thickness from the scene, as a box
+    /// standing on a table or a shelf board) scores this factor times the product of the two
+    /// scores, at most 1 ([`crate::pipeline::detection_score`]). The detector's score carries
+    /// `one_face_factor` for the unseen thickness and the estimator's its doubt over the
+    /// inferred extent: the same doubt counted twice. Such estimates were true positives
+    /// about as often as two-face ones scored 1.7 to 2 times higher (replay of `anybox
+    /// estimate --masks detect` on generated tables, pallets and shelves alike; at 0.2–0.3,
+    /// 69–89 % of them against 30–38 % of two-face ones). 1 disables. Default 1.7 (bench, 48
+    /// views per set, mean AP@0.5 of the 15 rows of seeds 2026 / 7 / 11 against 1: 0.6647 →
+    /// 0.6723, AP@0.7 0.5086 → 0.5170; 1.5: 0.6715, 2.0: 0.6710; seeds 3 / 5, not used to
+    /// choose it: 0.6448 → 0.6494).
+    pub one_face_inferred_factor: f64,
     /// A surface-level candidate splits into its colour-level candidates when at least this
     /// many seam cells lie next to two of them with coplanar faces (flush cartons). Default 9
     /// (bench, 48 views per set, seeds 2026 / 7 / 11, mean AP@0.5 of the 15 rows against 6,
@@ -765,6 +778,7 @@ impl Default for DetectConfig {
             repeat_boost_odds: 3.0,
             repeat_boost_min_aspect: 0.35,
             repeat_boost_min_extent_mm: 200.0,
+            one_face_inferred_factor: 1.7,
             split_min_seam_cells: 9,
             split_flap_check: true,
             split_flap_max_colour_delta: 40.0,
