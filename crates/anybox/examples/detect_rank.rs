@@ -99,7 +99,7 @@ fn main() {
                         })
                         .count(),
                 );
-                let faces = m.name.split('(').nth(1).and_then(|x| x.chars().next());
+                let faces = m.faces.and_then(|f| char::from_digit(f.into(), 10));
                 rows.push((
                     e.pose,
                     pipeline::detection_score(m.score, m.faces, &e, &cfg.detect),
