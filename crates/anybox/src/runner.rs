@@ -190,10 +190,12 @@ pub fn run_detected_frame(
         ));
     }
     let ranked = crate::pipeline::ranked_scores(&scored, &readings.repeats, &config.detect);
+    // Sources that a reading outranks, with how it reads them.
+    let mut outranked = Vec::new();
     for rd in &readings.repeats {
-        let key = match rd.kind {
-            crate::pipeline::RepeatKind::Split => "split_of",
-            crate::pipeline::RepeatKind::Extend => "extended_from",
+        let (key, read) = match rd.kind {
+            crate::pipeline::RepeatKind::Split => ("split_of", "split"),
+            crate::pipeline::RepeatKind::Extend => ("extended_from", "extended"),
         };
         let (source, like) = (name(idx[rd.source]), name(idx[rd.reference]));
         for part in &rd.parts {
@@ -207,14 +209,13 @@ pub fn run_detected_frame(
             }
             alts.push(rec);
         }
+        if rd.promoted {
+            outranked.push((idx[rd.source], read));
+        }
     }
     // A reading that outranks its source makes the source the alternative.
-    for rd in readings.repeats.iter().filter(|rd| rd.promoted) {
-        let read = match rd.kind {
-            crate::pipeline::RepeatKind::Split => "split",
-            crate::pipeline::RepeatKind::Extend => "extended",
-        };
-        let src = &mut out.estimates[idx[rd.source]];
+    for (i, read) in outranked {
+        let src = &mut out.estimates[i];
         src.extra
             .insert("alternative".into(), serde_json::json!(true));
         src.extra
