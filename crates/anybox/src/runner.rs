@@ -479,7 +479,8 @@ mod tests {
     /// is a carton the merged box misses. Four other detections have that carton's size and
     /// none the merged box's, so the copies outrank it and it becomes the alternative
     /// (`repeat_promote_min_copies`); without that rule they are the alternatives, scored
-    /// below both.
+    /// below both. (The default detector cuts the pair at its faint joint (`profiles`); the
+    /// test turns that off.)
     #[test]
     fn detected_frame_cuts_a_merged_pair_into_copies_of_a_carton() {
         use anybox_synth::{generate_view, Layout, NoiseModel, SynthConfig};
@@ -492,6 +493,13 @@ mod tests {
             ..SynthConfig::default()
         };
         let v = generate_view(&sc, 11, 0);
+        // The detector's faint-seam cut (`profile_seam_min_dip`) parts this pair already; off
+        // here, so that the merged detection this rule is for is made.
+        let base = || {
+            let mut c = Config::default();
+            c.detect.profile_seam_min_dip = 0.0;
+            c
+        };
         let best = |b: &anybox_geom::OrientedBox| best_iou(&v, b);
         let alternative = Some(serde_json::json!(true));
         // (copies that outrank their source, copies that find a carton the source misses)
@@ -525,16 +533,22 @@ mod tests {
             }
             (promoted, found)
         };
-        let (promoted, found) = run(&Config::default());
+        // With the faint-seam cut, no merged box here misses a carton that one of its copies
+        // finds.
+        assert!(
+            !run(&Config::default()).1,
+            "a merged box despite the faint-seam cut"
+        );
+        let (promoted, found) = run(&base());
         assert!(found, "no copy finds a carton that its merged box misses");
         assert!(promoted > 0, "the copies do not outrank the merged box");
-        let mut kept = Config::default();
+        let mut kept = base();
         kept.detect.repeat_promote_min_copies = 0;
         assert_eq!(run(&kept), (0, true));
         // Five other cartons of the copies' size asked for: this frame has four.
         kept.detect.repeat_promote_min_copies = 5;
         assert_eq!(run(&kept), (0, true));
-        let mut off = Config::default();
+        let mut off = base();
         off.detect.repeat_split_score_factor = 0.0;
         let out0 = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &off).unwrap();
         assert!(out0
@@ -543,10 +557,10 @@ mod tests {
             .all(|r| !r.extra.contains_key("split_of")));
         // The five cartons of one size rank higher than without the size rule
         // (`repeat_boost_min_copies`); the other detections keep their scores.
-        let mut plain = Config::default();
+        let mut plain = base();
         plain.detect.repeat_boost_min_copies = 0;
         let out1 = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &plain).unwrap();
-        let boosted = Config::default();
+        let boosted = base();
         let out2 = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &boosted).unwrap();
         let primary = |o: &RunOutput| -> Vec<(serde_json::Value, f64)> {
             o.estimates

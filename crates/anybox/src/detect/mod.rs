@@ -11,8 +11,10 @@
 //!    changes — flush faces of touching cartons are separated by their printed edges, tape,
 //!    shadowed gaps and colour differences, which depth alone cannot see; a plane per region;
 //!    colour patches are cut along straight seam lines whose gaps let flush cartons merge
-//!    (`lines`); tops cut in two by tape or by their own flap seam are rejoined (`halves`
-//!    pairs flap-seam halves off from a carton's edge);
+//!    (`lines`), and side faces at joints too faint to see per pixel that stand out of the
+//!    face's luminance profile along the line (`profiles`); tops cut in two by tape or by
+//!    their own flap seam are rejoined (`halves` pairs flap-seam halves off from a carton's
+//!    edge);
 //! 3. `boxes`: support planes (floor, table, shelf boards, walls) removed; up to three mutually
 //!    perpendicular faces sharing a convex edge grouped into one box; curved (sphere, cylinder),
 //!    irregular, too small and too large segments rejected; a cuboid fitted per group and scored
@@ -48,6 +50,7 @@ mod grid;
 mod halves;
 mod lines;
 mod occluded;
+mod profiles;
 mod regions;
 
 use anybox_geom::{Intrinsics, OrientedBox};
@@ -136,6 +139,35 @@ pub struct DetectConfig {
     /// A seam line's cells cover at least this fraction of its span. Default 0.5 (0.25–0.7
     /// within ±0.03 on pallets).
     pub seam_line_density: f64,
+    /// Faint seams in a side face's luminance profile (`profiles`): the mean luminance
+    /// (levels, 0..255, the mean of the three channels) of the pixels in a bin one pixel wide
+    /// along a straight line across a planar colour patch must lie this far below the mean of
+    /// the bins 2–3 bins to either side (and below both); 0 disables. Default 1.5.
+    pub profile_seam_min_dip: f64,
+    /// ... and this fraction of their brightness below them. Default 0.02.
+    pub profile_seam_min_rel: f64,
+    /// ... and this many times the profile's roughness (1.4826 × the median absolute
+    /// deviation of the same dip statistic over all its bins) beyond its median: cardboard
+    /// grain and print make every bin a small dip or bump, a seam stands out of them.
+    /// Default 6 (seed 2026: joints between stacked cartons at 6–14, grain on dark faces
+    /// up to 3.3).
+    pub profile_seam_min_z: f64,
+    /// The seam's bin and the bins beside it differ in chromaticity (each channel's share of
+    /// their sum) by at most this: a joint darkens the carton's own colour, a printed stripe
+    /// changes it. Default 0.03.
+    pub profile_seam_max_chroma: f64,
+    /// Narrowest bin of the profile, mm (a joint between two cartons is 3–6 mm wide; at arm's
+    /// length a pixel is under 1 mm). Default 2.
+    pub profile_seam_bin_mm: f64,
+    /// A faint seam lies at least this far inside the patch, mm. Default 40.
+    pub profile_seam_min_piece_mm: f64,
+    /// Of the four quarters of the seam's length, this many (of at least three that can be
+    /// measured) must each show 40 % of the dip, below both sides. Default 3.
+    pub profile_seam_quarters: u32,
+    /// Patches whose normal lies within this angle of up (the floor's normal, else
+    /// `support_up_hint`) are tops and are not cut at faint seams, degrees; with neither, no
+    /// patch is. Default 45.
+    pub profile_seam_top_deg: f64,
     /// Tape and printed bands narrower than this that cut a face in two are bridged (the two
     /// halves become one region), mm; 0 disables. Default 90 (tape is 40–60 mm wide). Before
     /// `tape_min_contrast`, 60–70 raised the 48-view pallet rows by 0.015–0.033 by leaving
@@ -712,6 +744,14 @@ impl Default for DetectConfig {
             seam_line_min_cells: 10,
             seam_line_gap_cells: 6,
             seam_line_density: 0.5,
+            profile_seam_min_dip: 1.5,
+            profile_seam_min_rel: 0.02,
+            profile_seam_min_z: 6.0,
+            profile_seam_max_chroma: 0.03,
+            profile_seam_bin_mm: 2.0,
+            profile_seam_min_piece_mm: 40.0,
+            profile_seam_quarters: 3,
+            profile_seam_top_deg: 45.0,
             tape_max_width_mm: 90.0,
             tape_min_contrast: 25.0,
             tape_colour_delta: 25.0,
@@ -909,8 +949,13 @@ pub fn detect_boxes(
 ) -> Result<Vec<Detection>, DetectError> {
     validate(rgb, depth, intrinsics)?;
     let (w, h) = (depth.width, depth.height);
-    let g = grid::Grid::build(rgb, depth, intrinsics, cfg);
+    let mut g = grid::Grid::build(rgb, depth, intrinsics, cfg);
     let p = pool(&g, rgb.is_some(), cfg);
+    // The faint joints are seams from here on: the split evidence and the hole filling read
+    // them.
+    for &i in &p.faint_seams {
+        g.seam[i as usize] = true;
+    }
     let (mut chosen, alts) = select(&g, p.objects, p.geo, p.col, cfg);
     let residual = residual_candidates(&g, &p.joins, &p.off, &p.planes, &chosen, cfg);
     chosen.extend(residual);
@@ -1378,6 +1423,8 @@ struct Pool {
     geo: Vec<boxes::Raw>,
     /// Groups of colour-uniform patches.
     col: Vec<boxes::Raw>,
+    /// Cells beside the cuts at faint seams (`profiles`): seam cells from here on.
+    faint_seams: Vec<u32>,
     /// Support cells (floors, tables, shelf boards).
     on_support: Vec<bool>,
     /// Cells cut off every object (near a support).
@@ -1390,15 +1437,25 @@ struct Pool {
     joins: regions::Joins,
 }
 
+/// "Up" for telling side faces from tops: the floor-like support's normal, else the
+/// configured hint (unit), else `None` (no face is known to be a side face).
+fn side_face_up(
+    up: Option<nalgebra::Vector3<f64>>,
+    cfg: &DetectConfig,
+) -> Option<nalgebra::Vector3<f64>> {
+    up.or_else(|| nalgebra::Vector3::from(cfg.support_up_hint).try_normalize(1e-9))
+}
+
 fn pool(g: &grid::Grid, has_rgb: bool, cfg: &DetectConfig) -> Pool {
     let joins = regions::joins(g, has_rgb, &g.seam, cfg);
     // Two levels: smooth surfaces regardless of colour (a box face with its tape, labels and
     // print), and colour-uniform patches (which separate flush cartons).
     let (geo_labels, surfaces) = regions::segment(g, &joins, Cues::Geometry, None, cfg);
     let (on_support, planes, up) = boxes::support_mask(g, &geo_labels, &surfaces, cfg);
+    let side_up = side_face_up(up, cfg);
     // Segment again without the support cells: what leaked into a support becomes its own.
     // Surfaces, colour patches and objects are independent from here: built in parallel.
-    let (geo, (col, (off, objects))) = rayon::join(
+    let (geo, ((col, faint_seams), (off, objects))) = rayon::join(
         || {
             let (labels, surfaces) =
                 regions::segment(g, &joins, Cues::Geometry, Some(&on_support), cfg);
@@ -1411,6 +1468,8 @@ fn pool(g: &grid::Grid, has_rgb: bool, cfg: &DetectConfig) -> Pool {
                     let (mut labels, patches) =
                         regions::segment(g, &joins, Cues::All, Some(&on_support), cfg);
                     let n_cut = lines::cut_along_seam_lines(g, &mut labels, patches.len(), cfg);
+                    let (n_cut, faint) =
+                        profiles::cut_at_faint_seams(g, &mut labels, n_cut, side_up, cfg);
                     let patches = if n_cut == patches.len() {
                         patches
                     } else {
@@ -1426,7 +1485,7 @@ fn pool(g: &grid::Grid, has_rgb: bool, cfg: &DetectConfig) -> Pool {
                         regions::fit_regions(g, &labels, n_joined, cfg)
                     };
                     let c = boxes::group_candidates(g, &labels, &patches, &on_support, cfg);
-                    boxes::drop_support_fragments(g, c, &planes, cfg)
+                    (boxes::drop_support_fragments(g, c, &planes, cfg), faint)
                 },
                 || {
                     let (obj_labels, off, n_obj) =
@@ -1446,6 +1505,7 @@ fn pool(g: &grid::Grid, has_rgb: bool, cfg: &DetectConfig) -> Pool {
         objects,
         geo,
         col,
+        faint_seams,
         on_support,
         off,
         planes,
@@ -1708,11 +1768,17 @@ pub fn segment_labels(
     let g = grid::Grid::build(rgb, depth, intrinsics, cfg);
     let joins = regions::joins(&g, rgb.is_some(), &g.seam, cfg);
     let (geo_labels, surfaces) = regions::segment(&g, &joins, Cues::Geometry, None, cfg);
-    let (on_support, planes, _) = boxes::support_mask(&g, &geo_labels, &surfaces, cfg);
+    let (on_support, planes, up) = boxes::support_mask(&g, &geo_labels, &surfaces, cfg);
+    let up = side_face_up(up, cfg);
     let (geo_labels, _) = regions::label(&g, &joins, Cues::Geometry, Some(&on_support), cfg);
     let (obj_labels, _, _) = object_labels(&g, &joins, &on_support, &planes, cfg);
     let (mut col_labels, patches) = regions::segment(&g, &joins, Cues::All, Some(&on_support), cfg);
-    lines::cut_along_seam_lines(&g, &mut col_labels, patches.len(), cfg);
+    let n_cut = lines::cut_along_seam_lines(&g, &mut col_labels, patches.len(), cfg);
+    let (_, faint) = profiles::cut_at_faint_seams(&g, &mut col_labels, n_cut, up, cfg);
+    let mut g = g;
+    for &i in &faint {
+        g.seam[i as usize] = true;
+    }
     let sup: Vec<u32> = on_support.iter().map(|&b| b as u32).collect();
     let seam: Vec<u32> = g.seam.iter().map(|&b| b as u32).collect();
     let (fw, fh) = (depth.width as usize, depth.height as usize);

@@ -1032,11 +1032,22 @@ fn flush_cartons_split_at_an_aliased_crease() {
     let v = pallet_view(2026, 30, 1);
     let best = |cfg: &DetectConfig| best_mask_ious(&v, cfg);
     let closed = best(&DetectConfig::default());
-    // Either of the two bridges the gaps: closing short gaps in seam lines, or cutting
-    // patches along whole seam lines (`lines`).
+    // Any of three bridges the gaps: closing short gaps in seam lines, cutting patches along
+    // whole seam lines (`lines`), or the joint in the fronts' luminance profile (`profiles`).
+    let profile_only = best(&DetectConfig {
+        seam_close_cells: 0,
+        seam_line_min_cells: 0,
+        ..DetectConfig::default()
+    });
+    assert!(
+        profile_only[14] > 0.9,
+        "best mask IoU of carton 14, faint seams only: {}",
+        profile_only[14]
+    );
     let open = best(&DetectConfig {
         seam_close_cells: 0,
         seam_line_min_cells: 0,
+        profile_seam_min_dip: 0.0,
         ..DetectConfig::default()
     });
     let lines_only = best(&DetectConfig {
@@ -1223,6 +1234,7 @@ fn a_stack_of_flush_cartons_splits_along_its_dashed_joints() {
     let cut = found(&DetectConfig::default());
     let uncut = found(&DetectConfig {
         seam_line_min_cells: 0,
+        profile_seam_min_dip: 0.0,
         ..DetectConfig::default()
     });
     // Boxes found (mask IoU > 0.5), those with visible fraction ≥ 0.5 and all.

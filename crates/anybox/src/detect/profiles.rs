@@ -1,0 +1,616 @@
+//! Cutting planar colour patches at faint straight seams, found in their luminance profile.
+//!
+//! In: the colour-level labels after `lines`, the grid (cell points, the full-resolution
+//! image), "up". Out: the labels with a side face's patch cut where a thin dark line runs
+//! straight across all of it along one of its edge directions, and the cells beside each cut
+//! (they become seam cells: `select`'s evidence that a coarse candidate is several cartons).
+//!
+//! The joint between two flush cartons is a pair of creased, darkened edges a few millimetres
+//! wide. On a face in shade, or beyond about 1.5 m where it is under two pixels wide, its
+//! per-pixel valleys sink into the sensor noise (`grid::seams` finds a few dashes of it or
+//! nothing), and one patch spans two stacked cartons. Averaged along the line over the whole
+//! patch, the dip stands out:
+//! - each patch's pixels are put on its plane and binned by their distance across the line
+//!   (bins one pixel wide, at least `profile_seam_bin_mm`);
+//! - a joint runs along a carton face's edges, so only the two edge directions of the patch's
+//!   smallest enclosing rectangle on its plane are tried, each turned by up to 2° (the
+//!   rectangle of a noisy, partly hidden patch is that far off, and 2° smear a seam over
+//!   10 mm on a 300 mm face);
+//! - a bin is a seam when its mean luminance lies below the mean of the bins a few
+//!   millimetres to either side (`profile_seam_min_dip`, `profile_seam_min_rel`) and below
+//!   both (a joint between cartons of two tones is a dip on a step; a plain step is not a
+//!   seam), by `profile_seam_min_z` times the profile's own roughness (grain and print make
+//!   every bin a small dip or bump);
+//! - the dip must show in `profile_seam_quarters` of the line's four quarters (print, labels
+//!   and stains do not run the patch's whole length), and must not change the colour's
+//!   chromaticity (`profile_seam_max_chroma`: a joint is a shadowed crease, a printed stripe
+//!   is another colour).
+//!
+//! Tops (normal within `profile_seam_top_deg` of up) are left alone: a carton's own flap seam
+//! runs straight across its top as a joint does, and only the whole scene (`halves`) tells
+//! them apart.
+
+use nalgebra::{SymmetricEigen, Vector3};
+use rayon::prelude::*;
+
+use super::grid::Grid;
+use super::regions::{plane_tol, NONE};
+use super::DetectConfig;
+
+/// Turns of each edge direction tried, degrees.
+const TURNS_DEG: [f64; 5] = [-2.0, -1.0, 0.0, 1.0, 2.0];
+
+/// Cuts the patches of `labels` (values below `n`) at faint seams (see the module doc).
+/// Returns the new number of labels (new pieces are numbered from `n` on) and the cells beside
+/// the cuts.
+pub(crate) fn cut_at_faint_seams(
+    g: &Grid,
+    labels: &mut [u32],
+    n: usize,
+    up: Option<Vector3<f64>>,
+    cfg: &DetectConfig,
+) -> (usize, Vec<u32>) {
+    let Some(up) = up else {
+        return (n, Vec::new());
+    };
+    if cfg.profile_seam_min_dip <= 0.0 || g.rgb.is_empty() || n == 0 {
+        return (n, Vec::new());
+    }
+    let mut cells: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for (i, &l) in labels.iter().enumerate() {
+        if l != NONE && (l as usize) < n {
+            cells[l as usize].push(i as u32);
+        }
+    }
+    let min_piece = cfg.min_region_cells.max(3) as usize;
+    let cuts: Vec<Option<Vec<u32>>> = cells
+        .par_iter()
+        .map(|c| {
+            if c.len() < 2 * min_piece {
+                None
+            } else {
+                cut_patch(g, c, min_piece, &up, cfg)
+            }
+        })
+        .collect();
+    let mut next = n as u32;
+    let mut seam = Vec::new();
+    for (l, cut) in cuts.iter().enumerate() {
+        let Some(piece) = cut else { continue };
+        let k = piece.iter().copied().max().unwrap_or(0);
+        let base = next;
+        next += k;
+        let label_of = |p: u32| if p == 0 { l as u32 } else { base + p - 1 };
+        for (&c, &p) in cells[l].iter().zip(piece) {
+            labels[c as usize] = label_of(p);
+        }
+        let mine = |x: u32| x == l as u32 || (base..next).contains(&x);
+        for &c in &cells[l] {
+            let i = c as usize;
+            let (u, v) = (i % g.w, i / g.w);
+            let nbrs = [
+                (u > 0).then(|| i - 1),
+                (u + 1 < g.w).then(|| i + 1),
+                (v > 0).then(|| i - g.w),
+                (v + 1 < g.h).then(|| i + g.w),
+            ];
+            if nbrs
+                .into_iter()
+                .flatten()
+                .any(|j| mine(labels[j]) && labels[j] != labels[i])
+            {
+                seam.push(c);
+            }
+        }
+    }
+    (next as usize, seam)
+}
+
+/// A seam found across one patch: its direction across the line, its offset from the patch's
+/// centroid along that direction (mm) and its strength (dip over threshold).
+#[derive(Clone, Copy)]
+struct Seam {
+    across: [f64; 2],
+    offset: f64,
+    strength: f64,
+    /// Bin width of its profile, mm.
+    bw: f64,
+}
+
+/// The piece (0 = uncut) of each of `cells`, or `None` when the patch is not cut.
+fn cut_patch(
+    g: &Grid,
+    cells: &[u32],
+    min_piece: usize,
+    up: &Vector3<f64>,
+    cfg: &DetectConfig,
+) -> Option<Vec<u32>> {
+    let pt = |i: u32| {
+        let p = g.p[i as usize];
+        Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+    };
+    let m = cells.len() as f64;
+    let centroid = cells.iter().map(|&i| pt(i)).sum::<Vector3<f64>>() / m;
+    let cov = cells
+        .iter()
+        .map(|&i| {
+            let d = pt(i) - centroid;
+            d * d.transpose()
+        })
+        .sum::<nalgebra::Matrix3<f64>>()
+        / m;
+    let eig = SymmetricEigen::new(cov);
+    let mut normal: Vector3<f64> = eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
+    if !normal.iter().all(|x| x.is_finite()) || normal.try_normalize_mut(1e-9).is_none() {
+        return None;
+    }
+    if normal.dot(&centroid) > 0.0 {
+        normal = -normal;
+    }
+    // A top: its flap seam is as straight and as long as a joint (left to `halves`).
+    if normal.dot(up).abs() >= cfg.profile_seam_top_deg.to_radians().cos() {
+        return None;
+    }
+    let inliers = cells
+        .iter()
+        .filter(|&&i| (pt(i) - centroid).dot(&normal).abs() <= plane_tol(cfg, pt(i).z))
+        .count();
+    if (inliers as f64) < cfg.min_plane_inlier_frac * m {
+        return None;
+    }
+    let seed = if normal.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let e1 = normal.cross(&seed).normalize();
+    let e2 = normal.cross(&e1);
+    let ab: Vec<[f64; 2]> = cells
+        .iter()
+        .map(|&i| {
+            let d = pt(i) - centroid;
+            [d.dot(&e1), d.dot(&e2)]
+        })
+        .collect();
+    let theta = rectangle_angle(&ab);
+
+    // Every pixel of the patch on its plane: (a, b) in the e1/e2 frame, R, G, B.
+    let s = g.step as f64;
+    let off = (s - 1.0) / 2.0;
+    let (fx, fy) = (g.k.fx * s, g.k.fy * s);
+    let (cx, cy) = (g.k.cx * s + off, g.k.cy * s + off);
+    let plane_d = normal.dot(&centroid);
+    // The seam cells beside the patch too (no patch holds them): where `grid::seams` saw
+    // stretches of the line, only they hold its dark pixels.
+    let mut beside: Vec<u32> = Vec::new();
+    for &c in cells {
+        let i = c as usize;
+        let (u, v) = (i % g.w, i / g.w);
+        for (du, dv) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)] {
+            let (uu, vv) = (u as i64 + du, v as i64 + dv);
+            if uu < 0 || vv < 0 || uu >= g.w as i64 || vv >= g.h as i64 {
+                continue;
+            }
+            let j = vv as usize * g.w + uu as usize;
+            if g.seam[j]
+                && g.z[j] > 0.0
+                && (pt(j as u32) - centroid).dot(&normal).abs() <= plane_tol(cfg, g.z[j] as f64)
+            {
+                beside.push(j as u32);
+            }
+        }
+    }
+    beside.sort_unstable();
+    beside.dedup();
+    let mut px: Vec<[f64; 5]> = Vec::with_capacity((cells.len() + beside.len()) * g.step * g.step);
+    for &c in cells.iter().chain(&beside) {
+        let (gu, gv) = (c as usize % g.w, c as usize / g.w);
+        for v in gv * g.step..((gv + 1) * g.step).min(g.fh) {
+            for u in gu * g.step..((gu + 1) * g.step).min(g.fw) {
+                let ray = Vector3::new((u as f64 - cx) / fx, (v as f64 - cy) / fy, 1.0);
+                let den = normal.dot(&ray);
+                if den.abs() < 1e-6 {
+                    continue;
+                }
+                let t = plane_d / den;
+                if t <= 0.0 {
+                    continue;
+                }
+                let d = ray * t - centroid;
+                let c = &g.rgb[3 * (v * g.fw + u)..3 * (v * g.fw + u) + 3];
+                px.push([
+                    d.dot(&e1),
+                    d.dot(&e2),
+                    c[0] as f64,
+                    c[1] as f64,
+                    c[2] as f64,
+                ]);
+            }
+        }
+    }
+    // Millimetres per pixel along `d` (unit, on the plane) at the centroid: the bins are one
+    // pixel wide across the line.
+    let mm_per_px = |d: &Vector3<f64>| {
+        let z = centroid.z;
+        let du = fx * (d.x * z - centroid.x * d.z) / (z * z);
+        let dv = fy * (d.y * z - centroid.y * d.z) / (z * z);
+        1.0 / du.hypot(dv).max(1e-6)
+    };
+
+    let mut piece = vec![0u32; cells.len()];
+    let mut mult = 1u32;
+    for axis in 0..2 {
+        let base = theta + axis as f64 * std::f64::consts::FRAC_PI_2;
+        let mut found: Vec<Seam> = TURNS_DEG
+            .iter()
+            .flat_map(|t| {
+                let a = base + t.to_radians();
+                let bw = mm_per_px(&(e1 * a.cos() + e2 * a.sin())).max(cfg.profile_seam_bin_mm);
+                profile_seams(&px, &ab, [a.cos(), a.sin()], bw, cfg)
+            })
+            .collect();
+        found.sort_by(|x, y| y.strength.total_cmp(&x.strength));
+        // Strongest first; one seam per place, and no piece under `min_piece` cells.
+        let mut kept: Vec<Seam> = Vec::new();
+        for sm in found {
+            if kept
+                .iter()
+                .any(|k| (k.offset - sm.offset).abs() < 4.0 * sm.bw)
+            {
+                continue;
+            }
+            let mut trial = kept.clone();
+            trial.push(sm);
+            let idx: Vec<usize> = ab.iter().map(|p| side_index(&trial, p)).collect();
+            let mut count = vec![0usize; trial.len() + 1];
+            for &k in &idx {
+                count[k] += 1;
+            }
+            if count.iter().all(|&c| c >= min_piece) {
+                kept = trial;
+            }
+        }
+        if kept.is_empty() {
+            continue;
+        }
+        for k in &kept {
+            log::debug!(
+                "faint seam: patch of {} cells cut {:.0} mm from its centroid, strength {:.1}, bins {:.1} mm",
+                cells.len(),
+                k.offset,
+                k.strength,
+                k.bw
+            );
+        }
+        for (p, q) in piece.iter_mut().zip(&ab) {
+            *p += side_index(&kept, q) as u32 * mult;
+        }
+        mult *= kept.len() as u32 + 1;
+    }
+    if mult == 1 {
+        return None;
+    }
+    // Compact the piece numbers, in order of first appearance (piece 0 keeps the label).
+    let mut map = std::collections::HashMap::new();
+    for p in piece.iter_mut() {
+        let next = map.len() as u32;
+        *p = *map.entry(*p).or_insert(next);
+    }
+    Some(piece)
+}
+
+/// How many of `seams` a point at `p` (mm, plane frame) lies beyond.
+fn side_index(seams: &[Seam], p: &[f64; 2]) -> usize {
+    seams
+        .iter()
+        .filter(|s| p[0] * s.across[0] + p[1] * s.across[1] > s.offset)
+        .count()
+}
+
+/// The angle (radians, in 0..π/2) of the smallest-area rectangle holding `pts`, in 1° steps,
+/// on at most 400 of them.
+fn rectangle_angle(pts: &[[f64; 2]]) -> f64 {
+    let stride = pts.len() / 400 + 1;
+    let mut best = (f64::INFINITY, 0.0);
+    for deg in 0..90 {
+        let a = (deg as f64).to_radians();
+        let (c, s) = (a.cos(), a.sin());
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in pts.iter().step_by(stride) {
+            let x = p[0] * c + p[1] * s;
+            let y = -p[0] * s + p[1] * c;
+            lo = [lo[0].min(x), lo[1].min(y)];
+            hi = [hi[0].max(x), hi[1].max(y)];
+        }
+        let area = (hi[0] - lo[0]) * (hi[1] - lo[1]);
+        if area < best.0 {
+            best = (area, a);
+        }
+    }
+    best.1
+}
+
+/// Seams running across direction `across` (unit, plane frame): dips in the luminance
+/// profile of the pixels `px` ([a, b, R, G, B]) binned `bw` mm wide, at least
+/// `profile_seam_min_piece_mm` from the ends of the cells `ab`, of the sides' chromaticity.
+fn profile_seams(
+    px: &[[f64; 5]],
+    ab: &[[f64; 2]],
+    across: [f64; 2],
+    bw: f64,
+    cfg: &DetectConfig,
+) -> Vec<Seam> {
+    let along = [-across[1], across[0]];
+    let dot = |p: &[f64], d: [f64; 2]| p[0] * d[0] + p[1] * d[1];
+    let (mut smin, mut smax, mut qmin, mut qmax) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for p in ab {
+        let (s, q) = (dot(p, across), dot(p, along));
+        (smin, smax) = (smin.min(s), smax.max(s));
+        (qmin, qmax) = (qmin.min(q), qmax.max(q));
+    }
+    let nb = ((smax - smin) / bw).ceil() as usize + 1;
+    if !(12..=4096).contains(&nb) || qmax - qmin < 4.0 * bw {
+        return Vec::new();
+    }
+    // Per quarter of the line's length (index 0..4) and in all (index 4): sums and counts.
+    let mut sum = vec![[0f64; 5]; nb];
+    let mut cnt = vec![[0u32; 5]; nb];
+    let mut colour = vec![[0f64; 3]; nb];
+    let qspan = qmax - qmin;
+    for p in px {
+        let j = ((dot(p, across) - smin) / bw).floor();
+        if j < 0.0 || j >= nb as f64 {
+            continue;
+        }
+        let k = (((dot(p, along) - qmin) / qspan * 4.0).floor()).clamp(0.0, 3.0) as usize;
+        let j = j as usize;
+        let lum = (p[2] + p[3] + p[4]) / 3.0;
+        sum[j][k] += lum;
+        cnt[j][k] += 1;
+        sum[j][4] += lum;
+        cnt[j][4] += 1;
+        for c in 0..3 {
+            colour[j][c] += p[2 + c];
+        }
+    }
+    let mean = |lo: usize, hi: usize, k: usize| -> Option<f64> {
+        let (s, c) = (lo..=hi).fold((0.0, 0u32), |(s, c), j| (s + sum[j][k], c + cnt[j][k]));
+        (c >= 3).then(|| s / c as f64)
+    };
+    let margin = cfg.profile_seam_min_piece_mm;
+    // The profile's own roughness: the spread (1.4826 × median absolute deviation) of the
+    // dip statistic over all its bins. Grain, print and noise make a rough profile; a seam is
+    // an outlier of it.
+    let dips: Vec<f64> = (3..nb - 3)
+        .filter_map(|j| {
+            let v = mean(j, j, 4)?;
+            Some(0.5 * (mean(j - 3, j - 2, 4)? + mean(j + 2, j + 3, 4)?) - v)
+        })
+        .collect();
+    if dips.len() < 8 {
+        return Vec::new();
+    }
+    let med = crate::observation::median(dips.clone());
+    let dev: Vec<f64> = dips.iter().map(|d| (d - med).abs()).collect();
+    let rough = 1.4826 * crate::observation::median(dev);
+    let mut out = Vec::new();
+    for j in 3..nb - 3 {
+        let sj = smin + (j as f64 + 0.5) * bw;
+        if sj - smin < margin || smax - sj < margin {
+            continue;
+        }
+        let (Some(val), Some(l1), Some(r1)) =
+            (mean(j, j, 4), mean(j - 1, j - 1, 4), mean(j + 1, j + 1, 4))
+        else {
+            continue;
+        };
+        // A local minimum of the whole profile.
+        if val > l1 || val > r1 {
+            continue;
+        }
+        let (Some(left), Some(right)) = (mean(j - 3, j - 2, 4), mean(j + 2, j + 3, 4)) else {
+            continue;
+        };
+        // The mean of the two sides: a joint between cartons of two tones is a dip on a
+        // step, and a plain step (a print's edge) has its middle there.
+        let reference = 0.5 * (left + right);
+        let thr = cfg
+            .profile_seam_min_dip
+            .max(cfg.profile_seam_min_rel * reference);
+        let dip = reference - val;
+        let z = (dip - med) / rough.max(1e-6);
+        // Below both sides: a sharp step puts its edge bin on its dark side, half the step
+        // below the mean of the two.
+        if dip < thr || z < cfg.profile_seam_min_z || left.min(right) - val < 0.5 * dip {
+            continue;
+        }
+        // A joint is a shadowed crease: it darkens the carton's own colour. A printed stripe
+        // (a coloured band) changes it.
+        let chroma = |bins: &[usize]| {
+            let c = bins.iter().fold([0.0; 3], |a, &b| {
+                [
+                    a[0] + colour[b][0],
+                    a[1] + colour[b][1],
+                    a[2] + colour[b][2],
+                ]
+            });
+            let t = (c[0] + c[1] + c[2]).max(1e-9);
+            [c[0] / t, c[1] / t, c[2] / t]
+        };
+        let (cj, cs) = (chroma(&[j]), chroma(&[j - 3, j - 2, j + 2, j + 3]));
+        if (0..3).any(|c| (cj[c] - cs[c]).abs() > cfg.profile_seam_max_chroma) {
+            continue;
+        }
+        // Along the line: each quarter's dip, a bin either way allowed.
+        let (mut valid, mut pass, mut sum_dip) = (0, 0, 0.0);
+        for k in 0..4 {
+            let vals = [mean(j - 1, j - 1, k), mean(j, j, k), mean(j + 1, j + 1, k)];
+            let (Some(l), Some(r)) = (mean(j - 3, j - 2, k), mean(j + 2, j + 3, k)) else {
+                continue;
+            };
+            let Some(v) = vals.iter().flatten().copied().reduce(f64::min) else {
+                continue;
+            };
+            valid += 1;
+            sum_dip += 0.5 * (l + r) - v;
+            if 0.5 * (l + r) - v >= 0.4 * dip && l.min(r) > v {
+                pass += 1;
+            }
+        }
+        if valid >= 3 && pass >= cfg.profile_seam_quarters.min(valid) {
+            out.push(Seam {
+                across,
+                offset: sj,
+                // The line turned 1–2° off crosses the seam and shows it in some quarters
+                // only: the mean over the quarters prefers the line along it.
+                strength: sum_dip / valid as f64 / rough.max(1e-6),
+                bw,
+            });
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use anybox_geom::Intrinsics;
+
+    /// Grid cells per side of the test frame (2 px each).
+    const W: usize = 120;
+    const H: usize = 90;
+    const FX: f64 = 600.0;
+
+    /// Deterministic noise in -0.5..0.5 from a pixel index.
+    fn jitter(i: u64) -> f64 {
+        let mut x = i.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5_4A32_D192_ED03;
+        x ^= x >> 29;
+        x = x.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        x ^= x >> 32;
+        (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    }
+
+    /// A plane facing the camera 1.5 m away filling the frame, one patch, whose pixels'
+    /// luminance (mean of the channels) is `lum(u, v)` plus sensor noise (σ ≈ 2 levels).
+    fn wall(lum: impl Fn(usize, usize) -> f64) -> (Grid, Vec<u32>) {
+        let (fw, fh) = (2 * W, 2 * H);
+        let k = Intrinsics {
+            fx: FX / 2.0,
+            fy: FX / 2.0,
+            cx: W as f64 / 2.0,
+            cy: H as f64 / 2.0,
+        };
+        let z = 1500.0f32;
+        let p = (0..W * H)
+            .map(|i| {
+                let (u, v) = ((i % W) as f64, (i / W) as f64);
+                [
+                    ((u - k.cx) / k.fx * z as f64) as f32,
+                    ((v - k.cy) / k.fy * z as f64) as f32,
+                    z,
+                ]
+            })
+            .collect();
+        // Grey: every channel the luminance, with its own noise.
+        let px = (0..3 * fw * fh)
+            .map(|i| {
+                let l = lum(i / 3 % fw, i / 3 / fw) + 7.0 * jitter(i as u64);
+                l.round().clamp(0.0, 255.0) as u8
+            })
+            .collect();
+        let g = Grid {
+            w: W,
+            h: H,
+            step: 2,
+            k,
+            z: vec![z; W * H],
+            p,
+            n: vec![[0.0, 0.0, -1.0]; W * H],
+            c: vec![[128.0; 3]; W * H],
+            seam: vec![false; W * H],
+            rgb: px,
+            fw,
+            fh,
+        };
+        (g, vec![0; W * H])
+    }
+
+    /// Camera y points down: up is −y, and the wall is a side face.
+    fn up() -> Vector3<f64> {
+        -Vector3::y()
+    }
+
+    /// Cardboard grain as the generator renders it at 1.5 m: stripes 2 mm wide, each up to
+    /// 6 % darker, one per pixel column after the camera's blur (up to 4 %), across the whole
+    /// wall.
+    fn grain(u: usize) -> f64 {
+        1.0 - 0.04 * (jitter(1_000_003 + u as u64) + 0.5)
+    }
+
+    #[test]
+    fn a_faint_joint_across_the_whole_wall_cuts_it_there() {
+        // Two px at column 150 (cell 75) 12 % darker: at 1.5 m the joint of two creased, 28 %
+        // darker edges 2.5 mm wide, blurred over its neighbours.
+        let (g, mut labels) = wall(|u, _| 70.0 * grain(u) * if u / 2 == 75 { 0.88 } else { 1.0 });
+        let (n, seam) =
+            cut_at_faint_seams(&g, &mut labels, 1, Some(up()), &DetectConfig::default());
+        assert_eq!(n, 2);
+        // Every cell left of the joint is in one piece, every cell right of it in the other.
+        for v in 0..H {
+            assert!((0..74).all(|u| labels[v * W + u] == labels[v * W]));
+            assert!((77..W).all(|u| labels[v * W + u] == labels[v * W + W - 1]));
+            assert_ne!(labels[v * W], labels[v * W + W - 1]);
+        }
+        assert!(!seam.is_empty());
+        assert!(seam.iter().all(|&i| (74..=76).contains(&(i as usize % W))));
+    }
+
+    #[test]
+    fn grain_alone_cuts_nothing() {
+        let (g, mut labels) = wall(|u, _| 70.0 * grain(u));
+        let (n, seam) =
+            cut_at_faint_seams(&g, &mut labels, 1, Some(up()), &DetectConfig::default());
+        assert_eq!(n, 1);
+        assert!(seam.is_empty());
+        assert!(labels.iter().all(|&l| l == 0));
+    }
+
+    #[test]
+    fn a_line_over_half_the_wall_is_print_not_a_joint() {
+        // As dark as the joint above, but only over the upper half of the wall.
+        let (g, mut labels) =
+            wall(|u, v| 70.0 * grain(u) * if u / 2 == 75 && v < H { 0.88 } else { 1.0 });
+        let (n, _) = cut_at_faint_seams(&g, &mut labels, 1, Some(up()), &DetectConfig::default());
+        assert_eq!(n, 1);
+    }
+
+    #[test]
+    fn tops_are_left_to_the_halves() {
+        // The same joint, but the plane faces up: it could be the carton's own flap seam.
+        let (g, mut labels) = wall(|u, _| 70.0 * grain(u) * if u / 2 == 75 { 0.88 } else { 1.0 });
+        let facing_up = Vector3::new(0.0, 0.0, -1.0);
+        let (n, _) = cut_at_faint_seams(
+            &g,
+            &mut labels,
+            1,
+            Some(facing_up),
+            &DetectConfig::default(),
+        );
+        assert_eq!(n, 1);
+        // Disabled: nothing is cut either.
+        let cfg = DetectConfig {
+            profile_seam_min_dip: 0.0,
+            ..DetectConfig::default()
+        };
+        let (n, _) = cut_at_faint_seams(&g, &mut labels, 1, Some(up()), &cfg);
+        assert_eq!(n, 1);
+        // No up known: no patch is known to be a side face.
+        let (n, _) = cut_at_faint_seams(&g, &mut labels, 1, None, &DetectConfig::default());
+        assert_eq!(n, 1);
+    }
+}
