@@ -32,7 +32,7 @@ pub(crate) struct Grid {
     /// flush cartons, a printed edge); such cells join nothing in the colour-aware segmentation.
     pub seam: Vec<bool>,
     /// The full-resolution image, RGB bytes row-major over `fw` × `fh` pixels; empty without
-    /// RGB.
+    /// RGB or with the faint-seam profiles off (`profile_seam_min_dip` 0).
     pub rgb: Vec<u8>,
     /// Frame width, pixels.
     pub fw: usize,
@@ -78,12 +78,14 @@ impl Grid {
             cx: (k.cx - off) / s,
             cy: (k.cy - off) / s,
         };
-        let lum: Vec<u16> = rgb.map_or_else(Vec::new, luminance);
-        let rgb_bytes = rgb.map_or_else(Vec::new, |img| img.as_raw().clone());
+        // Only the faint-seam profiles read the full-resolution image after this.
+        let rgb_bytes = rgb
+            .filter(|_| cfg.profile_seam_min_dip > 0.0)
+            .map_or_else(Vec::new, |img| img.as_raw().clone());
         // Seams (full resolution) and the depth cells are independent: built in parallel.
         let (seam, (z, c)) = rayon::join(
             || match rgb {
-                Some(img) if cfg.seam_valley_levels > 0.0 => seams(img, &lum, w, h, step, cfg),
+                Some(img) if cfg.seam_valley_levels > 0.0 => seams(img, w, h, step, cfg),
                 _ => vec![false; n],
             },
             || cells(rgb, depth, w, h, step, cfg),
@@ -108,14 +110,6 @@ impl Grid {
             fh: depth.height as usize,
         }
     }
-}
-
-/// Per pixel, the sum of the three channels (0..=765), row-major.
-fn luminance(img: &RgbImage) -> Vec<u16> {
-    img.as_raw()
-        .par_chunks_exact(3)
-        .map(|p| p[0] as u16 + p[1] as u16 + p[2] as u16)
-        .collect()
 }
 
 /// Per cell: the depth of the nearest surface (mm; 0 = no valid pixel) and the mean colour
@@ -190,16 +184,13 @@ fn cells(
 /// on luminance averaged over 3 px along the line (sensor noise drops, the line does not);
 /// with `seam_ridges`, also a pixel brighter than both by as much. A cell is a seam cell when
 /// it holds at least `seam_min_pixels` such pixels.
-fn seams(
-    img: &RgbImage,
-    lum: &[u16],
-    w: usize,
-    h: usize,
-    step: usize,
-    cfg: &DetectConfig,
-) -> Vec<bool> {
+fn seams(img: &RgbImage, w: usize, h: usize, step: usize, cfg: &DetectConfig) -> Vec<bool> {
     let (fw, fh) = (img.width() as usize, img.height() as usize);
-    let lum: Vec<i32> = lum.par_iter().map(|&l| l as i32).collect();
+    let raw = img.as_raw();
+    let lum: Vec<i32> = raw
+        .par_chunks_exact(3)
+        .map(|p| (p[0] as i32) + (p[1] as i32) + (p[2] as i32))
+        .collect();
     // Sums of 3 px: along columns (for vertical lines, valley across x) and along rows. Zero
     // on the frame's outermost rows and columns.
     let mut col3 = vec![0i32; fw * fh];
@@ -534,7 +525,7 @@ mod tests {
         let img = dark_face();
         let cfg = DetectConfig::default();
         let (w, h) = (32, 32);
-        let seam = seams(&img, &luminance(&img), w, h, 2, &cfg);
+        let seam = seams(&img, w, h, 2, &cfg);
         assert!(row_share(&seam, w, 10) >= 0.9, "crease");
         assert!(row_share(&seam, w, 20) >= 0.9, "sliver");
         // Rows more than two cells from both lines see noise alone: scattered seam cells
@@ -554,7 +545,7 @@ mod tests {
             seam_ridges: false,
             ..DetectConfig::default()
         };
-        let seam = seams(&img, &luminance(&img), w, h, 2, &old);
+        let seam = seams(&img, w, h, 2, &old);
         assert!(row_share(&seam, w, 10) < 0.2, "old crease");
         assert!(row_share(&seam, w, 20) < 0.2, "old sliver");
     }
