@@ -415,7 +415,9 @@ fn frames_from_planes(
     dedup_frames(frames, cfg.dedup_angle_deg)
 }
 
-fn any_perpendicular(n: &Vector3<f64>) -> Vector3<f64> {
+/// A vector perpendicular to `n` (not unit): the cross product with whichever of x and y lies
+/// farther from it.
+pub(crate) fn any_perpendicular(n: &Vector3<f64>) -> Vector3<f64> {
     if n.x.abs() < 0.9 {
         Vector3::x().cross(n)
     } else {

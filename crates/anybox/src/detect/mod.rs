@@ -1468,8 +1468,13 @@ fn pool(g: &grid::Grid, has_rgb: bool, cfg: &DetectConfig) -> Pool {
                     let (mut labels, patches) =
                         regions::segment(g, &joins, Cues::All, Some(&on_support), cfg);
                     let n_cut = lines::cut_along_seam_lines(g, &mut labels, patches.len(), cfg);
+                    let patches = if n_cut == patches.len() {
+                        patches
+                    } else {
+                        regions::fit_regions(g, &labels, n_cut, cfg)
+                    };
                     let (n_cut, faint) =
-                        profiles::cut_at_faint_seams(g, &mut labels, n_cut, side_up, cfg);
+                        profiles::cut_at_faint_seams(g, &mut labels, &patches, side_up, cfg);
                     let patches = if n_cut == patches.len() {
                         patches
                     } else {
@@ -1774,7 +1779,12 @@ pub fn segment_labels(
     let (obj_labels, _, _) = object_labels(&g, &joins, &on_support, &planes, cfg);
     let (mut col_labels, patches) = regions::segment(&g, &joins, Cues::All, Some(&on_support), cfg);
     let n_cut = lines::cut_along_seam_lines(&g, &mut col_labels, patches.len(), cfg);
-    let (_, faint) = profiles::cut_at_faint_seams(&g, &mut col_labels, n_cut, up, cfg);
+    let patches = if n_cut == patches.len() {
+        patches
+    } else {
+        regions::fit_regions(&g, &col_labels, n_cut, cfg)
+    };
+    let (_, faint) = profiles::cut_at_faint_seams(&g, &mut col_labels, &patches, up, cfg);
     let mut g = g;
     for &i in &faint {
         g.seam[i as usize] = true;

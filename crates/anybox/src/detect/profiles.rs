@@ -33,26 +33,27 @@
 //! runs straight across its top as a joint does, and only the whole scene (`halves`) tells
 //! them apart.
 
-use nalgebra::{SymmetricEigen, Vector3};
+use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::grid::Grid;
-use super::regions::{plane_tol, NONE};
+use super::regions::{plane_tol, Region, NONE};
 use super::DetectConfig;
 
 /// Turns of each edge direction tried, degrees.
 const TURNS_DEG: [f64; 5] = [-2.0, -1.0, 0.0, 1.0, 2.0];
 
-/// Cuts the patches of `labels` (values below `n`) at faint seams (see the module doc).
-/// Returns the new number of labels (new pieces are numbered from `n` on) and the cells beside
-/// the cuts.
+/// Cuts the patches of `labels` (values below `n`, the patches' plane fits `regions[..n]`) at
+/// faint seams (see the module doc). Returns the new number of labels (new pieces are numbered
+/// from `n` on) and the cells beside the cuts.
 pub(crate) fn cut_at_faint_seams(
     g: &Grid,
     labels: &mut [u32],
-    n: usize,
+    regions: &[Region],
     up: Option<Vector3<f64>>,
     cfg: &DetectConfig,
 ) -> (usize, Vec<u32>) {
+    let n = regions.len();
     let Some(up) = up else {
         return (n, Vec::new());
     };
@@ -68,11 +69,12 @@ pub(crate) fn cut_at_faint_seams(
     let min_piece = cfg.min_region_cells.max(3) as usize;
     let cuts: Vec<Option<Vec<u32>>> = cells
         .par_iter()
-        .map(|c| {
+        .zip(regions)
+        .map(|(c, r)| {
             if c.len() < 2 * min_piece {
                 None
             } else {
-                cut_patch(g, c, min_piece, &up, cfg)
+                cut_patch(g, c, r, min_piece, &up, cfg)
             }
         })
         .collect();
@@ -124,6 +126,7 @@ struct Seam {
 fn cut_patch(
     g: &Grid,
     cells: &[u32],
+    region: &Region,
     min_piece: usize,
     up: &Vector3<f64>,
     cfg: &DetectConfig,
@@ -132,41 +135,15 @@ fn cut_patch(
         let p = g.p[i as usize];
         Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64)
     };
-    let m = cells.len() as f64;
-    let centroid = cells.iter().map(|&i| pt(i)).sum::<Vector3<f64>>() / m;
-    let cov = cells
-        .iter()
-        .map(|&i| {
-            let d = pt(i) - centroid;
-            d * d.transpose()
-        })
-        .sum::<nalgebra::Matrix3<f64>>()
-        / m;
-    let eig = SymmetricEigen::new(cov);
-    let mut normal: Vector3<f64> = eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
-    if !normal.iter().all(|x| x.is_finite()) || normal.try_normalize_mut(1e-9).is_none() {
-        return None;
-    }
-    if normal.dot(&centroid) > 0.0 {
-        normal = -normal;
-    }
+    let (centroid, normal) = (region.centroid, region.normal);
     // A top: its flap seam is as straight and as long as a joint (left to `halves`).
     if normal.dot(up).abs() >= cfg.profile_seam_top_deg.to_radians().cos() {
         return None;
     }
-    let inliers = cells
-        .iter()
-        .filter(|&&i| (pt(i) - centroid).dot(&normal).abs() <= plane_tol(cfg, pt(i).z))
-        .count();
-    if (inliers as f64) < cfg.min_plane_inlier_frac * m {
+    if region.inlier_frac < cfg.min_plane_inlier_frac {
         return None;
     }
-    let seed = if normal.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let e1 = normal.cross(&seed).normalize();
+    let e1 = -crate::hypotheses::any_perpendicular(&normal).normalize();
     let e2 = normal.cross(&e1);
     let ab: Vec<[f64; 2]> = cells
         .iter()
@@ -632,6 +609,11 @@ mod tests {
         (g, vec![0; W * H])
     }
 
+    /// The wall's plane fit, as the colour patches get it.
+    fn fit(g: &Grid) -> Vec<Region> {
+        crate::detect::regions::fit_regions(g, &[0u32; W * H], 1, &DetectConfig::default())
+    }
+
     /// Camera y points down: up is −y, and the wall is a side face.
     fn up() -> Vector3<f64> {
         -Vector3::y()
@@ -649,8 +631,13 @@ mod tests {
         // Two px at column 150 (cell 75) 12 % darker: at 1.5 m the joint of two creased, 28 %
         // darker edges 2.5 mm wide, blurred over its neighbours.
         let (g, mut labels) = wall(|u, _| 70.0 * grain(u) * if u / 2 == 75 { 0.88 } else { 1.0 });
-        let (n, seam) =
-            cut_at_faint_seams(&g, &mut labels, 1, Some(up()), &DetectConfig::default());
+        let (n, seam) = cut_at_faint_seams(
+            &g,
+            &mut labels,
+            &fit(&g),
+            Some(up()),
+            &DetectConfig::default(),
+        );
         assert_eq!(n, 2);
         // Every cell left of the joint is in one piece, every cell right of it in the other.
         for v in 0..H {
@@ -665,8 +652,13 @@ mod tests {
     #[test]
     fn grain_alone_cuts_nothing() {
         let (g, mut labels) = wall(|u, _| 70.0 * grain(u));
-        let (n, seam) =
-            cut_at_faint_seams(&g, &mut labels, 1, Some(up()), &DetectConfig::default());
+        let (n, seam) = cut_at_faint_seams(
+            &g,
+            &mut labels,
+            &fit(&g),
+            Some(up()),
+            &DetectConfig::default(),
+        );
         assert_eq!(n, 1);
         assert!(seam.is_empty());
         assert!(labels.iter().all(|&l| l == 0));
@@ -677,7 +669,13 @@ mod tests {
         // As dark as the joint above, but only over the upper half of the wall.
         let (g, mut labels) =
             wall(|u, v| 70.0 * grain(u) * if u / 2 == 75 && v < H { 0.88 } else { 1.0 });
-        let (n, _) = cut_at_faint_seams(&g, &mut labels, 1, Some(up()), &DetectConfig::default());
+        let (n, _) = cut_at_faint_seams(
+            &g,
+            &mut labels,
+            &fit(&g),
+            Some(up()),
+            &DetectConfig::default(),
+        );
         assert_eq!(n, 1);
     }
 
@@ -689,7 +687,7 @@ mod tests {
         let (n, _) = cut_at_faint_seams(
             &g,
             &mut labels,
-            1,
+            &fit(&g),
             Some(facing_up),
             &DetectConfig::default(),
         );
@@ -699,10 +697,10 @@ mod tests {
             profile_seam_min_dip: 0.0,
             ..DetectConfig::default()
         };
-        let (n, _) = cut_at_faint_seams(&g, &mut labels, 1, Some(up()), &cfg);
+        let (n, _) = cut_at_faint_seams(&g, &mut labels, &fit(&g), Some(up()), &cfg);
         assert_eq!(n, 1);
         // No up known: no patch is known to be a side face.
-        let (n, _) = cut_at_faint_seams(&g, &mut labels, 1, None, &DetectConfig::default());
+        let (n, _) = cut_at_faint_seams(&g, &mut labels, &fit(&g), None, &DetectConfig::default());
         assert_eq!(n, 1);
     }
 }
