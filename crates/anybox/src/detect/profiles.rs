@@ -182,7 +182,27 @@ fn cut_patch(
     }
     beside.sort_unstable();
     beside.dedup();
-    let mut px: Vec<[f64; 5]> = Vec::with_capacity((cells.len() + beside.len()) * g.step * g.step);
+    // Millimetres per pixel along `d` (unit, on the plane) at the centroid: the bins are one
+    // pixel wide across the line.
+    let mm_per_px = |d: &Vector3<f64>| {
+        let z = centroid.z;
+        let du = fx * (d.x * z - centroid.x * d.z) / (z * z);
+        let dv = fy * (d.y * z - centroid.y * d.z) / (z * z);
+        1.0 / du.hypot(dv).max(1e-6)
+    };
+    let max_turn = TURNS_DEG
+        .iter()
+        .fold(0.0f64, |m, t| m.max(t.abs()))
+        .to_radians();
+    // The two edge directions, each binned in one pass over the pixels.
+    let mut binned: [Option<Binned>; 2] = [0, 1].map(|axis| {
+        let base = theta + axis as f64 * std::f64::consts::FRAC_PI_2;
+        let bw = mm_per_px(&(e1 * base.cos() + e2 * base.sin())).max(cfg.profile_seam_bin_mm);
+        Binned::new(&ab, base, bw, max_turn, cfg)
+    });
+    if binned.iter().all(Option::is_none) {
+        return None;
+    }
     for &c in cells.iter().chain(&beside) {
         let (gu, gv) = (c as usize % g.w, c as usize / g.w);
         for v in gv * g.step..((gv + 1) * g.step).min(g.fh) {
@@ -198,40 +218,26 @@ fn cut_patch(
                 }
                 let d = ray * t - centroid;
                 let c = &g.rgb[3 * (v * g.fw + u)..3 * (v * g.fw + u) + 3];
-                px.push([
+                let p = [
                     d.dot(&e1),
                     d.dot(&e2),
                     c[0] as f64,
                     c[1] as f64,
                     c[2] as f64,
-                ]);
+                ];
+                for b in binned.iter_mut().flatten() {
+                    b.add(&p);
+                }
             }
         }
     }
-    // Millimetres per pixel along `d` (unit, on the plane) at the centroid: the bins are one
-    // pixel wide across the line.
-    let mm_per_px = |d: &Vector3<f64>| {
-        let z = centroid.z;
-        let du = fx * (d.x * z - centroid.x * d.z) / (z * z);
-        let dv = fy * (d.y * z - centroid.y * d.z) / (z * z);
-        1.0 / du.hypot(dv).max(1e-6)
-    };
 
     let mut piece = vec![0u32; cells.len()];
     let mut mult = 1u32;
-    for axis in 0..2 {
-        let base = theta + axis as f64 * std::f64::consts::FRAC_PI_2;
-        let bw = mm_per_px(&(e1 * base.cos() + e2 * base.sin())).max(cfg.profile_seam_bin_mm);
-        let max_turn = TURNS_DEG
-            .iter()
-            .fold(0.0f64, |m, t| m.max(t.abs()))
-            .to_radians();
-        let Some(binned) = Binned::new(&px, &ab, base, bw, max_turn, cfg) else {
-            continue;
-        };
+    for binned in binned.iter().flatten() {
         let mut found: Vec<Seam> = TURNS_DEG
             .iter()
-            .flat_map(|t| profile_seams(&binned, &ab, t.to_radians(), cfg))
+            .flat_map(|t| profile_seams(binned, &ab, t.to_radians(), cfg))
             .collect();
         found.sort_by(|x, y| y.strength.total_cmp(&x.strength));
         // Strongest first; one seam per place, and no piece under `min_piece` cells.
@@ -292,15 +298,22 @@ fn side_index(seams: &[Seam], p: &[f64; 2]) -> usize {
 }
 
 /// The angle (radians, in 0..π/2) of the smallest-area rectangle holding `pts`, in 1° steps,
-/// on at most 400 of them.
+/// on at most 400 of them (an even stride), measured on their convex hull.
 fn rectangle_angle(pts: &[[f64; 2]]) -> f64 {
     let stride = pts.len() / 400 + 1;
+    // Only the hull's corners reach a rectangle's sides.
+    let sample: Vec<nalgebra::Vector2<f64>> = pts
+        .iter()
+        .step_by(stride)
+        .map(|p| nalgebra::Vector2::new(p[0], p[1]))
+        .collect();
+    let hull = crate::hypotheses::convex_hull_2d(&sample);
     let mut best = (f64::INFINITY, 0.0);
     for deg in 0..90 {
         let a = (deg as f64).to_radians();
         let (c, s) = (a.cos(), a.sin());
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for p in pts.iter().step_by(stride) {
+        for p in &hull {
             let x = p[0] * c + p[1] * s;
             let y = -p[0] * s + p[1] * c;
             lo = [lo[0].min(x), lo[1].min(y)];
@@ -324,6 +337,9 @@ const SEGMENTS: usize = 16;
 /// `qseg`), with luminance and colour sums and counts.
 struct Binned {
     angle: f64,
+    /// Unit vectors across and along the line (plane frame).
+    across: [f64; 2],
+    along: [f64; 2],
     bw: f64,
     s0: f64,
     nb: usize,
@@ -336,11 +352,10 @@ struct Binned {
 }
 
 impl Binned {
-    /// Bins `px` ([a, b, R, G, B]) across direction `angle` (radians in the plane frame) over
-    /// the cells' (`ab`) extent. `None` when the patch is under 12 or over 2048 bins across,
-    /// too narrow for two pieces, or under 4 bins long.
+    /// Empty bins across direction `angle` (radians in the plane frame) over the cells' (`ab`)
+    /// extent. `None` when the patch is under 12 or over 2048 bins across, too narrow for two
+    /// pieces, or under 4 bins long.
     fn new(
-        px: &[[f64; 5]],
         ab: &[[f64; 2]],
         angle: f64,
         bw: f64,
@@ -348,7 +363,6 @@ impl Binned {
         cfg: &DetectConfig,
     ) -> Option<Binned> {
         let (across, along) = ([angle.cos(), angle.sin()], [-angle.sin(), angle.cos()]);
-        let dot = |p: &[f64], d: [f64; 2]| p[0] * d[0] + p[1] * d[1];
         let (mut smin, mut smax, mut qmin, mut qmax) = (
             f64::INFINITY,
             f64::NEG_INFINITY,
@@ -370,35 +384,42 @@ impl Binned {
         {
             return None;
         }
-        let qseg = (qmax - qmin) / SEGMENTS as f64;
-        let mut b = Binned {
+        Some(Binned {
             angle,
+            across,
+            along,
             bw,
             s0: smin,
             nb,
             q0: qmin,
-            qseg,
+            qseg: (qmax - qmin) / SEGMENTS as f64,
             lum: vec![0.0; SEGMENTS * nb],
             cnt: vec![0; SEGMENTS * nb],
             rgb: vec![[0.0; 3]; SEGMENTS * nb],
-        };
-        for p in px {
-            let j = ((dot(p, across) - smin) / bw).floor();
-            if j < 0.0 || j >= nb as f64 {
-                continue;
-            }
-            let k = ((dot(p, along) - qmin) / qseg)
-                .floor()
-                .clamp(0.0, (SEGMENTS - 1) as f64);
-            let i = k as usize * nb + j as usize;
-            b.lum[i] += (p[2] + p[3] + p[4]) / 3.0;
-            b.cnt[i] += 1;
-            for c in 0..3 {
-                b.rgb[i][c] += p[2 + c];
-            }
-        }
-        Some(b)
+        })
     }
+
+    /// Adds a pixel `p` ([a, b] on the plane (mm), R, G, B) to its bin, if it has one.
+    fn add(&mut self, p: &[f64; 5]) {
+        let j = ((dot(p, self.across) - self.s0) / self.bw).floor();
+        if j < 0.0 || j >= self.nb as f64 {
+            return;
+        }
+        let k = ((dot(p, self.along) - self.q0) / self.qseg)
+            .floor()
+            .clamp(0.0, (SEGMENTS - 1) as f64);
+        let i = k as usize * self.nb + j as usize;
+        self.lum[i] += (p[2] + p[3] + p[4]) / 3.0;
+        self.cnt[i] += 1;
+        for c in 0..3 {
+            self.rgb[i][c] += p[2 + c];
+        }
+    }
+}
+
+/// `p`'s first two coordinates dotted with `d`.
+fn dot(p: &[f64], d: [f64; 2]) -> f64 {
+    p[0] * d[0] + p[1] * d[1]
 }
 
 /// Seams across the line turned by `turn` (radians) from `b`'s direction: dips in its
@@ -415,37 +436,48 @@ fn profile_seams(b: &Binned, ab: &[[f64; 2]], turn: f64, cfg: &DetectConfig) -> 
         .max()
         .unwrap_or(0) as usize;
     let nb = b.nb + 2 * pad;
-    // Per quarter of the line's length (index 0..4) and in all (index 4): sums and counts.
-    let mut sum = vec![[0f64; 5]; nb];
-    let mut cnt = vec![[0u32; 5]; nb];
-    let mut colour = vec![[0f64; 3]; nb];
-    for k in 0..SEGMENTS {
-        let q = k * 4 / SEGMENTS;
-        let d = shift(k) + pad as i64;
-        for j in 0..b.nb {
-            let i = k * b.nb + j;
-            if b.cnt[i] == 0 {
-                continue;
-            }
-            let jt = (j as i64 + d) as usize;
-            sum[jt][q] += b.lum[i];
-            cnt[jt][q] += b.cnt[i];
-            sum[jt][4] += b.lum[i];
-            cnt[jt][4] += b.cnt[i];
-            for c in 0..3 {
-                colour[jt][c] += b.rgb[i][c];
-            }
+    let offset: [usize; SEGMENTS] = std::array::from_fn(|k| (shift(k) + pad as i64) as usize);
+    // The whole line's luminance sums and counts per bin. The quarters' (of the line's
+    // length) and the colour sums are taken for the few bins that get that far.
+    let mut sum = vec![0f64; nb];
+    let mut cnt = vec![0u32; nb];
+    for (k, &d) in offset.iter().enumerate() {
+        let row = k * b.nb..(k + 1) * b.nb;
+        let dst = sum[d..d + b.nb].iter_mut().zip(&mut cnt[d..d + b.nb]);
+        for ((s, c), (&l, &n)) in dst.zip(b.lum[row.clone()].iter().zip(&b.cnt[row])) {
+            *s += l;
+            *c += n;
         }
     }
+    // Segment k's bin that lands on bin `j` of the turned line.
+    let source = |k: usize, j: usize| -> Option<usize> {
+        let src = j.checked_sub(offset[k])?;
+        (src < b.nb).then_some(k * b.nb + src)
+    };
+    // Bin `j`'s sum and count over quarter `q` (0..4) of the line, or over all of it (4).
+    let bin = |j: usize, q: usize| -> (f64, u32) {
+        if q == 4 {
+            return (sum[j], cnt[j]);
+        }
+        let per = SEGMENTS / 4;
+        (q * per..(q + 1) * per)
+            .filter_map(|k| source(k, j))
+            .fold((0.0, 0), |(s, c), i| (s + b.lum[i], c + b.cnt[i]))
+    };
+    let colour = |j: usize| -> [f64; 3] {
+        (0..SEGMENTS)
+            .filter_map(|k| source(k, j))
+            .fold([0.0; 3], |a, i| {
+                let c = &b.rgb[i];
+                [a[0] + c[0], a[1] + c[1], a[2] + c[2]]
+            })
+    };
     let smin_bins = b.s0 - pad as f64 * bw;
-    // The cells' extent across the turned line, for the margins.
-    let (mut smin, mut smax) = (f64::INFINITY, f64::NEG_INFINITY);
-    for p in ab {
-        let s = p[0] * across[0] + p[1] * across[1];
-        (smin, smax) = (smin.min(s), smax.max(s));
-    }
     let mean = |lo: usize, hi: usize, k: usize| -> Option<f64> {
-        let (s, c) = (lo..=hi).fold((0.0, 0u32), |(s, c), j| (s + sum[j][k], c + cnt[j][k]));
+        let (s, c) = (lo..=hi).fold((0.0, 0u32), |(s, c), j| {
+            let (bs, bc) = bin(j, k);
+            (s + bs, c + bc)
+        });
         (c >= 3).then(|| s / c as f64)
     };
     let margin = cfg.profile_seam_min_piece_mm;
@@ -462,6 +494,12 @@ fn profile_seams(b: &Binned, ab: &[[f64; 2]], turn: f64, cfg: &DetectConfig) -> 
     let floor = cfg.profile_seam_min_dip.max(0.0);
     if dips.len() < 8 || !dips.iter().any(|&d| d >= floor) {
         return Vec::new();
+    }
+    // The cells' extent across the turned line, for the margins.
+    let (mut smin, mut smax) = (f64::INFINITY, f64::NEG_INFINITY);
+    for p in ab {
+        let s = dot(p, across);
+        (smin, smax) = (smin.min(s), smax.max(s));
     }
     let med = crate::observation::median(dips.clone());
     let dev: Vec<f64> = dips.iter().map(|d| (d - med).abs()).collect();
@@ -501,11 +539,8 @@ fn profile_seams(b: &Binned, ab: &[[f64; 2]], turn: f64, cfg: &DetectConfig) -> 
         // (a coloured band) changes it.
         let chroma = |bins: &[usize]| {
             let c = bins.iter().fold([0.0; 3], |a, &b| {
-                [
-                    a[0] + colour[b][0],
-                    a[1] + colour[b][1],
-                    a[2] + colour[b][2],
-                ]
+                let cb = colour(b);
+                [a[0] + cb[0], a[1] + cb[1], a[2] + cb[2]]
             });
             let t = (c[0] + c[1] + c[2]).max(1e-9);
             [c[0] / t, c[1] / t, c[2] / t]
@@ -624,6 +659,49 @@ mod tests {
     /// wall.
     fn grain(u: usize) -> f64 {
         1.0 - 0.04 * (jitter(1_000_003 + u as u64) + 0.5)
+    }
+
+    proptest::proptest! {
+        /// The hull's corners give the angle that all the (strided) points give: the
+        /// rectangle's sides only ever touch hull points.
+        #[test]
+        fn rectangle_angle_on_the_hull_is_the_angle_on_all_points(
+            seed in 0u64..1_000_000,
+            n in 3usize..1500,
+            turn_deg in 0.0f64..90.0,
+            aspect in 0.1f64..1.0,
+        ) {
+            let (c, s) = (turn_deg.to_radians().cos(), turn_deg.to_radians().sin());
+            let pts: Vec<[f64; 2]> = (0..n as u64)
+                .map(|i| {
+                    // A noisy rectangle, 300 × (300 · aspect) mm, turned.
+                    let x = 300.0 * jitter(3 * i + seed) + 3.0 * jitter(3 * i + 1 + seed);
+                    let y = 300.0 * aspect * jitter(3 * i + 2 + seed);
+                    [x * c - y * s, x * s + y * c]
+                })
+                .collect();
+            let stride = pts.len() / 400 + 1;
+            let area = |a: f64| {
+                let (c, s) = (a.cos(), a.sin());
+                let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+                for p in pts.iter().step_by(stride) {
+                    let (x, y) = (p[0] * c + p[1] * s, -p[0] * s + p[1] * c);
+                    lo = [lo[0].min(x), lo[1].min(y)];
+                    hi = [hi[0].max(x), hi[1].max(y)];
+                }
+                (hi[0] - lo[0]) * (hi[1] - lo[1])
+            };
+            let brute = (0..90)
+                .map(|d| (d as f64).to_radians())
+                .min_by(|a, b| area(*a).total_cmp(&area(*b)))
+                .unwrap_or(0.0);
+            let got = rectangle_angle(&pts);
+            // The same angle, or one whose area ties it up to rounding.
+            proptest::prop_assert!(
+                (area(got) - area(brute)).abs() <= 1e-9 * area(brute),
+                "hull angle {got} vs brute force {brute}"
+            );
+        }
     }
 
     #[test]
