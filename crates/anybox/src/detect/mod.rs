@@ -966,12 +966,18 @@ pub fn detect_boxes(
         .map(|i| p.on_support[i] || (p.off[i] && flat_near_support(&g, &p.planes, i, cfg)))
         .collect();
     let base_claims = claimed.clone();
-    let cands = boxes::fill(&g, chosen, &mut claimed, &p.planes, p.up, cfg);
-    // Each alternative is filled on its own: it may take what the detections took.
-    let alt_cands: Vec<boxes::Candidate> = alts
-        .into_par_iter()
-        .flat_map(|a| boxes::fill(&g, vec![a], &mut base_claims.clone(), &p.planes, p.up, cfg))
-        .collect();
+    // Each alternative is filled on its own, beside the detections: it may take what they
+    // took.
+    let (cands, alt_cands): (_, Vec<boxes::Candidate>) = rayon::join(
+        || boxes::fill(&g, chosen, &mut claimed, &p.planes, p.up, cfg),
+        || {
+            alts.into_par_iter()
+                .flat_map(|a| {
+                    boxes::fill(&g, vec![a], &mut base_claims.clone(), &p.planes, p.up, cfg)
+                })
+                .collect()
+        },
+    );
     let (fw, fh) = (w as usize, h as usize);
     let area = (fw * fh) as f64 / (640.0 * 480.0);
     let one_face_min = cfg.one_face_min_pixels as f64 * area;
@@ -1065,17 +1071,21 @@ fn grow_into_holes(
         .iter()
         .map(|&k| (&dets[k].mask, &shapes[k]))
         .collect();
-    let added = ctx.grow(&masks, held.clone());
     let alts: Vec<usize> = (0..dets.len()).filter(|&k| dets[k].alternative).collect();
-    let grown: Vec<Vec<usize>> = alts
-        .par_iter()
-        .map(|&k| {
-            let mut taken = held.clone();
-            or_into(&mut taken, &dets[k].mask, shapes[k].bounds);
-            ctx.grow(&[(&dets[k].mask, &shapes[k])], taken)
-                .swap_remove(0)
-        })
-        .collect();
+    // The detections grow together, beside the alternatives (each on its own).
+    let (added, grown): (_, Vec<Vec<usize>>) = rayon::join(
+        || ctx.grow(&masks, held.clone()),
+        || {
+            alts.par_iter()
+                .map(|&k| {
+                    let mut taken = held.clone();
+                    or_into(&mut taken, &dets[k].mask, shapes[k].bounds);
+                    ctx.grow(&[(&dets[k].mask, &shapes[k])], taken)
+                        .swap_remove(0)
+                })
+                .collect()
+        },
+    );
     // Every growth above read the masks as they were; each takes its pixels only now.
     for (&k, px) in primary.iter().zip(added).chain(alts.iter().zip(grown)) {
         for i in px {
