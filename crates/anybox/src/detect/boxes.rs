@@ -57,11 +57,14 @@ pub(crate) fn v3(p: &[f32; 3]) -> Vector3<f64> {
 /// almost nothing behind it (fewer than `support_max_behind_fraction` of the valid cells: it
 /// bounds the scene, like a floor or a wall). Returns, per cell, whether it belongs
 /// to such a surface, and the support planes themselves (their fragments between boxes are
-/// dropped later by [`drop_support_fragments`]).
+/// dropped later by [`drop_support_fragments`]). `ransac`: [`ransac_planes`]' planes when the
+/// caller found them already (they need no surfaces: found beside the segmentation), else
+/// they are found here.
 pub(crate) fn support_mask(
     g: &Grid,
     surface_labels: &[u32],
     surfaces: &[Region],
+    ransac: Option<Vec<(Region, bool, bool)>>,
     cfg: &DetectConfig,
 ) -> (Vec<bool>, Vec<Region>, Option<Vector3<f64>>) {
     let mut is_support = vec![false; surfaces.len()];
@@ -87,7 +90,7 @@ pub(crate) fn support_mask(
                 .map(|&r| support_tests(g, &surfaces[r], &members[r], cfg))
                 .collect()
         },
-        || ransac_planes(g, cfg),
+        || ransac.unwrap_or_else(|| ransac_planes(g, cfg)),
     );
     for (&r, (strong, standing)) in big.iter().zip(tests) {
         cands.push((Some(r), surfaces[r].clone(), strong, standing));
@@ -303,7 +306,7 @@ fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) ->
 
 /// Dominant planes by RANSAC over all cells (deterministic), with their support tests: finds
 /// floors and tables that sensor noise or texture cut into many small surfaces.
-fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
+pub(crate) fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
     let mut pool: Vec<usize> = (0..g.z.len())
         .filter(|&i| g.z[i] > 0.0)
         .step_by(3)

@@ -1457,11 +1457,19 @@ fn side_face_up(
 }
 
 fn pool(g: &grid::Grid, has_rgb: bool, cfg: &DetectConfig) -> Pool {
-    let joins = regions::joins(g, has_rgb, &g.seam, cfg);
     // Two levels: smooth surfaces regardless of colour (a box face with its tape, labels and
-    // print), and colour-uniform patches (which separate flush cartons).
-    let (geo_labels, surfaces) = regions::segment(g, &joins, Cues::Geometry, None, cfg);
-    let (on_support, planes, up) = boxes::support_mask(g, &geo_labels, &surfaces, cfg);
+    // print), and colour-uniform patches (which separate flush cartons). The dominant planes
+    // need neither: found beside them.
+    let ((joins, geo_labels, surfaces), ransac) = rayon::join(
+        || {
+            let joins = regions::joins(g, has_rgb, &g.seam, cfg);
+            let (labels, surfaces) = regions::segment(g, &joins, Cues::Geometry, None, cfg);
+            (joins, labels, surfaces)
+        },
+        || boxes::ransac_planes(g, cfg),
+    );
+    let (on_support, planes, up) =
+        boxes::support_mask(g, &geo_labels, &surfaces, Some(ransac), cfg);
     let side_up = side_face_up(up, cfg);
     // Segment again without the support cells: what leaked into a support becomes its own.
     // Surfaces, colour patches and objects are independent from here: built in parallel.
@@ -1783,7 +1791,7 @@ pub fn segment_labels(
     let g = grid::Grid::build(rgb, depth, intrinsics, cfg);
     let joins = regions::joins(&g, rgb.is_some(), &g.seam, cfg);
     let (geo_labels, surfaces) = regions::segment(&g, &joins, Cues::Geometry, None, cfg);
-    let (on_support, planes, up) = boxes::support_mask(&g, &geo_labels, &surfaces, cfg);
+    let (on_support, planes, up) = boxes::support_mask(&g, &geo_labels, &surfaces, None, cfg);
     let up = side_face_up(up, cfg);
     let (geo_labels, _) = regions::label(&g, &joins, Cues::Geometry, Some(&on_support), cfg);
     let (obj_labels, _, _) = object_labels(&g, &joins, &on_support, &planes, cfg);

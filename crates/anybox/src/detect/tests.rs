@@ -704,7 +704,7 @@ fn touching_boxes_of_different_heights_come_out_separately() {
         let g = grid::Grid::build(Some(&rgb), &depth, &k(), c);
         let joins = regions::joins(&g, true, &g.seam, c);
         let (l, sf) = regions::segment(&g, &joins, Cues::Geometry, None, c);
-        let (on, planes, ..) = boxes::support_mask(&g, &l, &sf, c);
+        let (on, planes, ..) = boxes::support_mask(&g, &l, &sf, None, c);
         let (ol, off, n) = object_labels(&g, &joins, &on, &planes, c);
         blobs::blob_candidates(&g, &ol, n, &off, c).len()
     };
