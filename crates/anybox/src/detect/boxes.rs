@@ -500,7 +500,7 @@ pub(crate) fn robust_range(vals: &mut [f64], q: f64) -> (f64, f64) {
 
 /// The axes of a lone face with normal `a`: `a` and the in-plane pair of the smallest
 /// robust bounding rectangle (quantile `q` each end) of its points, in 3° steps over a quarter
-/// turn. Faces of more than 512 points are measured on an even stride of them: the quantiles
+/// turn (every 9° first, then 3° around the best). Faces of more than 512 points are measured on an even stride of them: the quantiles
 /// barely move, and this runs for every lone face of every object (a quarter of detection time
 /// before).
 pub(crate) fn rectangle_axes(a: &Vector3<f64>, pts: &[Vector3<f64>], q: f64) -> [Vector3<f64>; 3] {
@@ -513,10 +513,9 @@ pub(crate) fn rectangle_axes(a: &Vector3<f64>, pts: &[Vector3<f64>], q: f64) -> 
     // |a × t| ≥ sin(25°) by the choice of t.
     let b0 = a.cross(&t).normalize();
     let c0 = a.cross(&b0);
-    let mut best = (f64::INFINITY, b0, c0);
     let mut xs = Vec::with_capacity(pts.len());
     let mut ys = Vec::with_capacity(pts.len());
-    for k in 0..30 {
+    let mut area_at = |k: i64| {
         let th = (k as f64 * 3.0).to_radians();
         let b = b0 * th.cos() + c0 * th.sin();
         let c = a.cross(&b);
@@ -526,9 +525,22 @@ pub(crate) fn rectangle_axes(a: &Vector3<f64>, pts: &[Vector3<f64>], q: f64) -> 
         ys.extend(pts.iter().step_by(stride).map(|p| p.dot(&c)));
         let (x0, x1) = robust_range(&mut xs, q);
         let (y0, y1) = robust_range(&mut ys, q);
-        let area = (x1 - x0) * (y1 - y0);
-        if area < best.0 {
-            best = (area, b, c);
+        ((x1 - x0) * (y1 - y0), b, c)
+    };
+    // Every third step first, then the two steps either side of the best (the area varies
+    // slowly with the angle).
+    let mut best = (f64::INFINITY, b0, c0);
+    let mut best_k = 0;
+    for k in (0..30).step_by(3) {
+        let r = area_at(k);
+        if r.0 < best.0 {
+            (best, best_k) = (r, k);
+        }
+    }
+    for k in [best_k - 2, best_k - 1, best_k + 1, best_k + 2] {
+        let r = area_at(k.rem_euclid(30));
+        if r.0 < best.0 {
+            best = r;
         }
     }
     [*a, best.1, best.2]
