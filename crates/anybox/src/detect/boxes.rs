@@ -500,9 +500,9 @@ pub(crate) fn robust_range(vals: &mut [f64], q: f64) -> (f64, f64) {
 
 /// The axes of a lone face with normal `a`: `a` and the in-plane pair of the smallest
 /// robust bounding rectangle (quantile `q` each end) of its points, in 3° steps over a quarter
-/// turn (every 9° first, then 3° around the best). Faces of more than 512 points are measured on an even stride of them: the quantiles
-/// barely move, and this runs for every lone face of every object (a quarter of detection time
-/// before).
+/// turn (every 9° first, then 3° around the best). Faces of more than 512 points are measured
+/// on an even stride of them: the quantiles barely move, and this runs for every lone face of
+/// every object (a quarter of detection time before).
 pub(crate) fn rectangle_axes(a: &Vector3<f64>, pts: &[Vector3<f64>], q: f64) -> [Vector3<f64>; 3] {
     let stride = pts.len().div_ceil(512).max(1);
     let t = if a.x.abs() < 0.9 {
