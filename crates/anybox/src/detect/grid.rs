@@ -31,13 +31,6 @@ pub(crate) struct Grid {
     /// The cell holds a thin dark (or bright) line of the full-resolution image (a seam between
     /// flush cartons, a printed edge); such cells join nothing in the colour-aware segmentation.
     pub seam: Vec<bool>,
-    /// The full-resolution image, RGB bytes row-major over `fw` × `fh` pixels; empty without
-    /// RGB or with the faint-seam profiles off (`profile_seam_min_dip` 0).
-    pub rgb: Vec<u8>,
-    /// Frame width, pixels.
-    pub fw: usize,
-    /// Frame height, pixels.
-    pub fh: usize,
 }
 
 /// Depth jump tolerance at depth `z_mm`: neighbours farther apart than this are different
@@ -78,10 +71,6 @@ impl Grid {
             cx: (k.cx - off) / s,
             cy: (k.cy - off) / s,
         };
-        // Only the faint-seam profiles read the full-resolution image after this.
-        let rgb_bytes = rgb
-            .filter(|_| cfg.profile_seam_min_dip > 0.0)
-            .map_or_else(Vec::new, |img| img.as_raw().clone());
         // Seams (full resolution) and the depth cells are independent: built in parallel.
         let (seam, (z, c)) = rayon::join(
             || match rgb {
@@ -105,9 +94,6 @@ impl Grid {
             n: nrm,
             c,
             seam,
-            rgb: rgb_bytes,
-            fw: depth.width as usize,
-            fh: depth.height as usize,
         }
     }
 }

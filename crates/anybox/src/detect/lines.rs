@@ -345,9 +345,6 @@ mod tests {
             n: vec![[0.0, 0.0, -1.0]; W * H],
             c: vec![[128.0; 3]; W * H],
             seam: s,
-            rgb: Vec::new(),
-            fw: 2 * W,
-            fh: 2 * H,
         };
         (g, labels)
     }

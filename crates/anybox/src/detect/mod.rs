@@ -950,7 +950,7 @@ pub fn detect_boxes(
     validate(rgb, depth, intrinsics)?;
     let (w, h) = (depth.width, depth.height);
     let mut g = grid::Grid::build(rgb, depth, intrinsics, cfg);
-    let p = pool(&g, rgb.is_some(), cfg);
+    let p = pool(&g, rgb, cfg);
     // The faint joints are seams from here on: the split evidence and the hole filling read
     // them.
     for &i in &p.faint_seams {
@@ -1456,7 +1456,32 @@ fn side_face_up(
     up.or_else(|| nalgebra::Vector3::from(cfg.support_up_hint).try_normalize(1e-9))
 }
 
-fn pool(g: &grid::Grid, has_rgb: bool, cfg: &DetectConfig) -> Pool {
+/// The colour patches (`labels`, fitted as `patches`) cut along seam lines (`lines`), then
+/// side faces at faint seams in `rgb` (`profiles`, with `side_up`). Returns the pieces' plane
+/// fits (refitted only where something was cut) and the cells beside the faint cuts.
+fn cut_at_seams(
+    g: &grid::Grid,
+    rgb: Option<&RgbImage>,
+    labels: &mut [u32],
+    patches: Vec<regions::Region>,
+    side_up: Option<Vector3<f64>>,
+    cfg: &DetectConfig,
+) -> (Vec<regions::Region>, Vec<u32>) {
+    let refit = |labels: &[u32], patches: Vec<regions::Region>, n: usize| {
+        if n == patches.len() {
+            patches
+        } else {
+            regions::fit_regions(g, labels, n, cfg)
+        }
+    };
+    let n_cut = lines::cut_along_seam_lines(g, labels, patches.len(), cfg);
+    let patches = refit(labels, patches, n_cut);
+    let (n_cut, faint) = profiles::cut_at_faint_seams(g, rgb, labels, &patches, side_up, cfg);
+    (refit(labels, patches, n_cut), faint)
+}
+
+fn pool(g: &grid::Grid, rgb: Option<&RgbImage>, cfg: &DetectConfig) -> Pool {
+    let has_rgb = rgb.is_some();
     // Two levels: smooth surfaces regardless of colour (a box face with its tape, labels and
     // print), and colour-uniform patches (which separate flush cartons). The dominant planes
     // need neither: found beside them.
@@ -1485,19 +1510,7 @@ fn pool(g: &grid::Grid, has_rgb: bool, cfg: &DetectConfig) -> Pool {
                 || {
                     let (mut labels, patches) =
                         regions::segment(g, &joins, Cues::All, Some(&on_support), cfg);
-                    let n_cut = lines::cut_along_seam_lines(g, &mut labels, patches.len(), cfg);
-                    let patches = if n_cut == patches.len() {
-                        patches
-                    } else {
-                        regions::fit_regions(g, &labels, n_cut, cfg)
-                    };
-                    let (n_cut, faint) =
-                        profiles::cut_at_faint_seams(g, &mut labels, &patches, side_up, cfg);
-                    let patches = if n_cut == patches.len() {
-                        patches
-                    } else {
-                        regions::fit_regions(g, &labels, n_cut, cfg)
-                    };
+                    let (patches, faint) = cut_at_seams(g, rgb, &mut labels, patches, side_up, cfg);
                     let mut strip = vec![false; g.z.len()];
                     let n_patches = regions::bridge_tape(g, &mut labels, &patches, &mut strip, cfg);
                     let patches = regions::fit_regions(g, &labels, n_patches, cfg);
@@ -1723,7 +1736,7 @@ pub fn candidate_pool(
 ) -> Result<Vec<(char, Detection)>, DetectError> {
     validate(rgb, depth, intrinsics)?;
     let g = grid::Grid::build(rgb, depth, intrinsics, cfg);
-    let p = pool(&g, rgb.is_some(), cfg);
+    let p = pool(&g, rgb, cfg);
     let to_mask = |c: &boxes::Raw| Detection {
         mask: cells_to_mask(&g, depth, &c.cells, None),
         score: c.score,
@@ -1796,13 +1809,7 @@ pub fn segment_labels(
     let (geo_labels, _) = regions::label(&g, &joins, Cues::Geometry, Some(&on_support), cfg);
     let (obj_labels, _, _) = object_labels(&g, &joins, &on_support, &planes, cfg);
     let (mut col_labels, patches) = regions::segment(&g, &joins, Cues::All, Some(&on_support), cfg);
-    let n_cut = lines::cut_along_seam_lines(&g, &mut col_labels, patches.len(), cfg);
-    let patches = if n_cut == patches.len() {
-        patches
-    } else {
-        regions::fit_regions(&g, &col_labels, n_cut, cfg)
-    };
-    let (_, faint) = profiles::cut_at_faint_seams(&g, &mut col_labels, &patches, up, cfg);
+    let (_, faint) = cut_at_seams(&g, rgb, &mut col_labels, patches, up, cfg);
     let mut g = g;
     for &i in &faint {
         g.seam[i as usize] = true;

@@ -36,6 +36,8 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use anybox_io::RgbImage;
+
 use super::grid::Grid;
 use super::regions::{plane_tol, Region, NONE};
 use super::DetectConfig;
@@ -44,10 +46,12 @@ use super::DetectConfig;
 const TURNS_DEG: [f64; 5] = [-2.0, -1.0, 0.0, 1.0, 2.0];
 
 /// Cuts the patches of `labels` (values below `n`, the patches' plane fits `regions[..n]`) at
-/// faint seams (see the module doc). Returns the new number of labels (new pieces are numbered
-/// from `n` on) and the cells beside the cuts.
+/// faint seams (see the module doc) in `rgb` (the frame's image, the grid's frame size; none:
+/// no cut). Returns the new number of labels (new pieces are numbered from `n` on) and the
+/// cells beside the cuts.
 pub(crate) fn cut_at_faint_seams(
     g: &Grid,
+    rgb: Option<&RgbImage>,
     labels: &mut [u32],
     regions: &[Region],
     up: Option<Vector3<f64>>,
@@ -57,7 +61,10 @@ pub(crate) fn cut_at_faint_seams(
     let Some(up) = up else {
         return (n, Vec::new());
     };
-    if cfg.profile_seam_min_dip <= 0.0 || g.rgb.is_empty() || n == 0 {
+    let Some(img) = rgb else {
+        return (n, Vec::new());
+    };
+    if cfg.profile_seam_min_dip <= 0.0 || n == 0 {
         return (n, Vec::new());
     }
     let mut cells: Vec<Vec<u32>> = vec![Vec::new(); n];
@@ -74,7 +81,7 @@ pub(crate) fn cut_at_faint_seams(
             if c.len() < 2 * min_piece {
                 None
             } else {
-                cut_patch(g, c, r, min_piece, &up, cfg)
+                cut_patch(g, img, c, r, min_piece, &up, cfg)
             }
         })
         .collect();
@@ -125,6 +132,7 @@ struct Seam {
 /// The piece (0 = uncut) of each of `cells`, or `None` when the patch is not cut.
 fn cut_patch(
     g: &Grid,
+    img: &RgbImage,
     cells: &[u32],
     region: &Region,
     min_piece: usize,
@@ -203,10 +211,11 @@ fn cut_patch(
     if binned.iter().all(Option::is_none) {
         return None;
     }
+    let (fw, fh, raw) = (img.width() as usize, img.height() as usize, img.as_raw());
     for &c in cells.iter().chain(&beside) {
         let (gu, gv) = (c as usize % g.w, c as usize / g.w);
-        for v in gv * g.step..((gv + 1) * g.step).min(g.fh) {
-            for u in gu * g.step..((gu + 1) * g.step).min(g.fw) {
+        for v in gv * g.step..((gv + 1) * g.step).min(fh) {
+            for u in gu * g.step..((gu + 1) * g.step).min(fw) {
                 let ray = Vector3::new((u as f64 - cx) / fx, (v as f64 - cy) / fy, 1.0);
                 let den = normal.dot(&ray);
                 if den.abs() < 1e-6 {
@@ -217,7 +226,7 @@ fn cut_patch(
                     continue;
                 }
                 let d = ray * t - centroid;
-                let c = &g.rgb[3 * (v * g.fw + u)..3 * (v * g.fw + u) + 3];
+                let c = &raw[3 * (v * fw + u)..3 * (v * fw + u) + 3];
                 let p = [
                     d.dot(&e1),
                     d.dot(&e2),
@@ -599,9 +608,33 @@ mod tests {
         (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
     }
 
-    /// A plane facing the camera 1.5 m away filling the frame, one patch, whose pixels'
-    /// luminance (mean of the channels) is `lum(u, v)` plus sensor noise (σ ≈ 2 levels).
-    fn wall(lum: impl Fn(usize, usize) -> f64) -> (Grid, Vec<u32>) {
+    /// A plane facing the camera 1.5 m away filling the frame, and its image.
+    struct Wall {
+        g: Grid,
+        img: RgbImage,
+    }
+
+    impl Wall {
+        /// `cut_at_faint_seams` on the wall's one patch.
+        fn cut(
+            &self,
+            labels: &mut [u32],
+            up: Option<Vector3<f64>>,
+            cfg: &DetectConfig,
+        ) -> (usize, Vec<u32>) {
+            let fit = crate::detect::regions::fit_regions(
+                &self.g,
+                &[0u32; W * H],
+                1,
+                &DetectConfig::default(),
+            );
+            cut_at_faint_seams(&self.g, Some(&self.img), labels, &fit, up, cfg)
+        }
+    }
+
+    /// The wall, one patch, whose pixels' luminance (mean of the channels) is `lum(u, v)` plus
+    /// sensor noise (σ ≈ 2 levels).
+    fn wall(lum: impl Fn(usize, usize) -> f64) -> (Wall, Vec<u32>) {
         let (fw, fh) = (2 * W, 2 * H);
         let k = Intrinsics {
             fx: FX / 2.0,
@@ -627,6 +660,8 @@ mod tests {
                 l.round().clamp(0.0, 255.0) as u8
             })
             .collect();
+        let img = RgbImage::from_raw(fw as u32, fh as u32, px)
+            .expect("3 bytes for each of fw × fh pixels");
         let g = Grid {
             w: W,
             h: H,
@@ -637,16 +672,8 @@ mod tests {
             n: vec![[0.0, 0.0, -1.0]; W * H],
             c: vec![[128.0; 3]; W * H],
             seam: vec![false; W * H],
-            rgb: px,
-            fw,
-            fh,
         };
-        (g, vec![0; W * H])
-    }
-
-    /// The wall's plane fit, as the colour patches get it.
-    fn fit(g: &Grid) -> Vec<Region> {
-        crate::detect::regions::fit_regions(g, &[0u32; W * H], 1, &DetectConfig::default())
+        (Wall { g, img }, vec![0; W * H])
     }
 
     /// Camera y points down: up is −y, and the wall is a side face.
@@ -708,14 +735,8 @@ mod tests {
     fn a_faint_joint_across_the_whole_wall_cuts_it_there() {
         // Two px at column 150 (cell 75) 12 % darker: at 1.5 m the joint of two creased, 28 %
         // darker edges 2.5 mm wide, blurred over its neighbours.
-        let (g, mut labels) = wall(|u, _| 70.0 * grain(u) * if u / 2 == 75 { 0.88 } else { 1.0 });
-        let (n, seam) = cut_at_faint_seams(
-            &g,
-            &mut labels,
-            &fit(&g),
-            Some(up()),
-            &DetectConfig::default(),
-        );
+        let (w, mut labels) = wall(|u, _| 70.0 * grain(u) * if u / 2 == 75 { 0.88 } else { 1.0 });
+        let (n, seam) = w.cut(&mut labels, Some(up()), &DetectConfig::default());
         assert_eq!(n, 2);
         // Every cell left of the joint is in one piece, every cell right of it in the other.
         for v in 0..H {
@@ -729,14 +750,8 @@ mod tests {
 
     #[test]
     fn grain_alone_cuts_nothing() {
-        let (g, mut labels) = wall(|u, _| 70.0 * grain(u));
-        let (n, seam) = cut_at_faint_seams(
-            &g,
-            &mut labels,
-            &fit(&g),
-            Some(up()),
-            &DetectConfig::default(),
-        );
+        let (w, mut labels) = wall(|u, _| 70.0 * grain(u));
+        let (n, seam) = w.cut(&mut labels, Some(up()), &DetectConfig::default());
         assert_eq!(n, 1);
         assert!(seam.is_empty());
         assert!(labels.iter().all(|&l| l == 0));
@@ -745,40 +760,28 @@ mod tests {
     #[test]
     fn a_line_over_half_the_wall_is_print_not_a_joint() {
         // As dark as the joint above, but only over the upper half of the wall.
-        let (g, mut labels) =
+        let (w, mut labels) =
             wall(|u, v| 70.0 * grain(u) * if u / 2 == 75 && v < H { 0.88 } else { 1.0 });
-        let (n, _) = cut_at_faint_seams(
-            &g,
-            &mut labels,
-            &fit(&g),
-            Some(up()),
-            &DetectConfig::default(),
-        );
+        let (n, _) = w.cut(&mut labels, Some(up()), &DetectConfig::default());
         assert_eq!(n, 1);
     }
 
     #[test]
     fn tops_are_left_to_the_halves() {
         // The same joint, but the plane faces up: it could be the carton's own flap seam.
-        let (g, mut labels) = wall(|u, _| 70.0 * grain(u) * if u / 2 == 75 { 0.88 } else { 1.0 });
+        let (w, mut labels) = wall(|u, _| 70.0 * grain(u) * if u / 2 == 75 { 0.88 } else { 1.0 });
         let facing_up = Vector3::new(0.0, 0.0, -1.0);
-        let (n, _) = cut_at_faint_seams(
-            &g,
-            &mut labels,
-            &fit(&g),
-            Some(facing_up),
-            &DetectConfig::default(),
-        );
+        let (n, _) = w.cut(&mut labels, Some(facing_up), &DetectConfig::default());
         assert_eq!(n, 1);
         // Disabled: nothing is cut either.
         let cfg = DetectConfig {
             profile_seam_min_dip: 0.0,
             ..DetectConfig::default()
         };
-        let (n, _) = cut_at_faint_seams(&g, &mut labels, &fit(&g), Some(up()), &cfg);
+        let (n, _) = w.cut(&mut labels, Some(up()), &cfg);
         assert_eq!(n, 1);
         // No up known: no patch is known to be a side face.
-        let (n, _) = cut_at_faint_seams(&g, &mut labels, &fit(&g), None, &DetectConfig::default());
+        let (n, _) = w.cut(&mut labels, None, &DetectConfig::default());
         assert_eq!(n, 1);
     }
 }
