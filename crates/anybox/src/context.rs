@@ -116,14 +116,17 @@ pub struct ContextConfig {
     /// ground-truth masks (`DETECT_SET="table, 0" size_diag <seed>`, 48 views; seeds 7 / 2026 /
     /// 11 / 3 / 5 / 13): ratio 3.5 (before) 25 / 12 / 13 / 24 / 15 / 15; ratio 10 with this
     /// at 0.12: 22 / 11 / 13 / 20 / 14 / 14; at 0.08: 22 / 10 / 13 / 21 / 14 / 14; with no
-    /// condition: 21 / 12 / 13 / 21 / 14 / 14 (seed 2026's two boxes on boxes had 0.15 and 0.10
-    /// of their ring nearer). Pallets, shelves, tables with 8 and 32 distractors (seeds 7 /
+    /// condition: 21 / 12 / 13 / 21 / 14 / 14 (seed 2026's two boxes on boxes have 0.154 and
+    /// 0.096 of their ring nearer; the boxes gained on seeds 7 and 2026, 0.002 to 0.075, and
+    /// one 0.30). Pallets, shelves, tables with 8 and 32 distractors (seeds 7 /
     /// 2026 / 11) and the synthetic bench set: no box more below 0.5, tables up to 2 fewer.
     /// `anybox bench --detect-frames 48`, the six seeds, mean AP@0.5 of the detection rows:
     /// tables 0.7225 / 0.7080 / 0.6845 → 0.7260 / 0.7113 / 0.6860 (0.08: 0.7253 / 0.7103 /
     /// 0.6860), no row lower, pallets and shelves unchanged; their ground-truth-mask column
-    /// 0.9292 / 0.9292 / 0.9273 → 0.9332 / 0.9323 / 0.9295. The estimator rows (`--no-detect`,
-    /// seeds 2026 / 7 / 11) and ycbv-boxes are unchanged.
+    /// 0.9292 / 0.9292 / 0.9273 → 0.9332 / 0.9323 / 0.9295, but on seed 2026 0.959 / 0.963 →
+    /// 0.955 / 0.959: one of its two boxes on boxes has 0.096 of its ring nearer, under 0.12
+    /// (0.08 keeps seed 2026 as it was and is below 0.12 on the other seeds). The estimator
+    /// rows (`--no-detect`, seeds 2026 / 7 / 11) and ycbv-boxes are unchanged.
     pub support_down_max_between: f64,
     /// ... along an axis within this angle of down, degrees. Default 80, as
     /// `layer_max_tilt_deg` (`size_diag`: 60 loses the two table boxes of the three above; 89
