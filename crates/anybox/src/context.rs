@@ -914,6 +914,14 @@ mod tests {
         (pose, depth, mask, pts, k)
     }
 
+    /// The defaults, with down along the camera's z (the camera of `flat_box_on_table`).
+    fn looking_down() -> ContextConfig {
+        ContextConfig {
+            up_hint: [0.0, 0.0, -1.0],
+            ..ContextConfig::default()
+        }
+    }
+
     /// The hidden height (mm) and its source for `flat_box_on_table(around)`'s top.
     fn hidden_height(
         around: &dyn Fn(u32, f64, f64) -> f32,
@@ -932,10 +940,7 @@ mod tests {
 
     #[test]
     fn a_table_all_around_a_flat_box_is_its_support() {
-        let looking_down = ContextConfig {
-            up_hint: [0.0, 0.0, -1.0],
-            ..ContextConfig::default()
-        };
+        let looking_down = looking_down();
         // The table 40 mm below the top.
         let everywhere = |_: u32, _: f64, _: f64| 1040.0;
         // 40 mm is a fifth of the smaller visible side: below `support_ratio[0]`, accepted only
@@ -987,10 +992,7 @@ mod tests {
 
     #[test]
     fn a_table_far_below_a_top_alone_is_its_support() {
-        let looking_down = ContextConfig {
-            up_hint: [0.0, 0.0, -1.0],
-            ..ContextConfig::default()
-        };
+        let looking_down = looking_down();
         // The table 800 mm below the 250 x 200 mm top: four times its smaller side, past
         // `support_ratio[1]` (3.5), within `support_down_max_ratio` (10).
         let table = |_: u32, _: f64, _: f64| 1800.0;
