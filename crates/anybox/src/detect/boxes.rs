@@ -1096,6 +1096,35 @@ fn corner_occupancy(g: &Grid, cells: &[u32], bx: &OrientedBox) -> f64 {
     n as f64 / cells.len() as f64 / ((1.0 - CORNER) * (1.0 - CORNER))
 }
 
+/// [`corner_occupancy`] of one face of a group, in its own rectangle: along the in-plane
+/// axes `e1` and `e2`, its cells' full extents (0.5 % quantiles, as a lone face's) and their
+/// middle.
+fn face_corner_share(g: &Grid, cells: &[u32], e1: &Vector3<f64>, e2: &Vector3<f64>) -> f64 {
+    const CORNER: f64 = 0.75;
+    let t1: Vec<f64> = cells
+        .iter()
+        .map(|&i| v3(&g.p[i as usize]).dot(e1))
+        .collect();
+    let t2: Vec<f64> = cells
+        .iter()
+        .map(|&i| v3(&g.p[i as usize]).dot(e2))
+        .collect();
+    // The quantiles reorder their input: on copies.
+    let (lo1, hi1) = robust_range(&mut t1.clone(), 0.005);
+    let (lo2, hi2) = robust_range(&mut t2.clone(), 0.005);
+    let (h1, h2) = ((hi1 - lo1) / 2.0, (hi2 - lo2) / 2.0);
+    if cells.is_empty() || h1 <= 0.0 || h2 <= 0.0 {
+        return 0.0;
+    }
+    let (c1, c2) = ((lo1 + hi1) / 2.0, (lo2 + hi2) / 2.0);
+    let n = t1
+        .iter()
+        .zip(&t2)
+        .filter(|&(a, b)| ((a - c1) / h1).abs() > CORNER && ((b - c2) / h2).abs() > CORNER)
+        .count();
+    n as f64 / cells.len() as f64 / ((1.0 - CORNER) * (1.0 - CORNER))
+}
+
 /// Figure or ground: of the valid cells in a ring `FRAME_RING` cells wide around a lone face,
 /// the fraction whose surface lies in front of the face's plane (continued to them) by more
 /// than twice the plane tolerance. A box's face stands in front of what surrounds it; a patch
@@ -1252,6 +1281,25 @@ pub(crate) fn score_faces(
         }
         return None;
     }
+    // A group's largest face must look like a rectangle too: an upright tin's cap is a disc
+    // beside a band of its mantle.
+    let largest = (0..n_faces).max_by_key(|&k| faces[k].len())?;
+    if n_faces > 1
+        && cfg.face_min_corners > 0.0
+        && faces[largest].len() >= cfg.face_corners_min_cells as usize
+    {
+        let k = largest;
+        let occ = face_corner_share(g, faces[k], &axes[(k + 1) % 3], &axes[(k + 2) % 3]);
+        if occ < cfg.face_min_corners {
+            if dbg && all.len() > 300 {
+                log::debug!(
+                    "group of {n_faces} n {} rejected: largest face corners {occ:.2}",
+                    all.len()
+                );
+            }
+            return None;
+        }
+    }
     let mut rot = Matrix3::from_columns(&axes);
     if rot.determinant() < 0.0 {
         rot.set_column(2, &(-axes[2]));
@@ -1335,12 +1383,11 @@ pub(crate) fn score_faces(
     if score < cfg.min_score {
         return None;
     }
-    let big = (0..n_faces).max_by_key(|&k| faces[k].len())?;
     Some(Raw {
         cells: all,
         score,
         n_faces: n_faces as u8,
         bx,
-        normal: normals[big],
+        normal: normals[largest],
     })
 }

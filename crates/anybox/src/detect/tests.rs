@@ -1891,3 +1891,45 @@ fn a_low_box_cut_off_near_the_table_is_filled_down_to_it() {
         );
     }
 }
+
+#[test]
+fn small_upright_tins_give_no_two_face_detection() {
+    // A tin 50 mm across and 60 mm tall at 1 m: its cap and a band of its mantle read as two
+    // perpendicular faces; the cap, the group's largest face, is a disc.
+    let cfg = DetectConfig::default();
+    let premise = DetectConfig {
+        face_min_corners: 0.0,
+        ..cfg.clone()
+    };
+    let mut without_test = 0;
+    for el in [30.0, 40.0, 50.0, 60.0] {
+        let s = Scene::with_elevation(el);
+        let tin = Obj::Cylinder {
+            base: s.on_table(0.0, 0.0, 0.0),
+            axis: s.up,
+            r: 25.0,
+            h: 60.0,
+        };
+        let (rgb, depth, owner) = s.render(&[tin]);
+        assert!(
+            mask_of(&owner, 0).count() > 1000,
+            "tin in view at {el}°: {} px",
+            mask_of(&owner, 0).count()
+        );
+        let dets = detect_boxes(Some(&rgb), &depth, &k(), &cfg).unwrap();
+        assert!(
+            dets.iter().all(|d| d.n_faces < 2),
+            "tin seen from {el}° detected as a group: {:?}",
+            dets.iter()
+                .map(|d| (d.score, d.n_faces, d.mask.count()))
+                .collect::<Vec<_>>()
+        );
+        without_test += detect_boxes(Some(&rgb), &depth, &k(), &premise)
+            .unwrap()
+            .iter()
+            .filter(|d| d.n_faces >= 2)
+            .count();
+    }
+    // Premise: without the corner test of the group's largest face, the tin is a box.
+    assert!(without_test >= 3, "{without_test}");
+}
