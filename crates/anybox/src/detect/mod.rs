@@ -346,12 +346,12 @@ pub struct DetectConfig {
     /// `face_corners_min_cells` cells, needs at least this corner occupancy (as
     /// `min_one_face_corners`, in the face's own rectangle along the group's other two axes,
     /// measured to its full extents): an upright tin reads as its cap, a disc, and a band of
-    /// its mantle. 0 disables. Default 0.05 (largest faces of generated boxes' groups: below
-    /// 0.05 for 0.6 % of them, `detect_dev`, seed 2026, 24 tables without distractors; 48-view
-    /// bench, seeds 2026 / 7 / 11: clear false positives on the tables with 32 distractors
-    /// 204 / 201 / 189 → 184 / 186 / 172; six seeds' mean AP@0.5 of that row 0.686 → 0.688.
-    /// Testing every face of the group, or 0.2, lost boxes: tables without distractors
-    /// AP@0.5 −0.005 and −0.016).
+    /// its mantle. 0 disables. Default 0.05 (faces of groups, `detect_dev`, seed 2026, 24 tables
+    /// without distractors: 0.6 % below 0.05, 3 % below 0.2; the tins' caps looked at:
+    /// 0.00–0.18; 48-view bench, seeds 2026 / 7 / 11: clear false positives on the tables with
+    /// 32 distractors 204 / 201 / 189 → 184 / 186 / 172; six seeds' mean AP@0.5 of that row
+    /// 0.686 → 0.688. Testing every face of the group lost boxes: tables without distractors
+    /// AP@0.5 −0.005 at 0.05, −0.016 at 0.2; the largest face at 0.2, −0.004).
     pub face_min_corners: f64,
     /// See `face_min_corners`, cells. Default 40.
     pub face_corners_min_cells: u32,
