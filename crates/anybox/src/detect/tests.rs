@@ -782,6 +782,29 @@ fn small_lone_faces_are_dropped() {
     assert!(kept.is_empty(), "{kept:?}");
 }
 
+/// An upright tin of radius `r` and height `h` (mm) on the table, seen from `el_deg` above it
+/// at 1 m; asserts that it covers more than `min_px` pixels.
+fn upright_tin(el_deg: f64, r: f64, h: f64, min_px: usize) -> (RgbImage, DepthMap) {
+    let s = Scene::with_elevation(el_deg);
+    let tin = Obj::Cylinder {
+        base: s.on_table(0.0, 0.0, 0.0),
+        axis: s.up,
+        r,
+        h,
+    };
+    let (rgb, depth, owner) = s.render(&[tin]);
+    let px = mask_of(&owner, 0).count();
+    assert!(px > min_px, "tin in view at {el_deg}°: {px} px");
+    (rgb, depth)
+}
+
+/// (score, faces, mask pixels) of each detection, for failure messages.
+fn summary(dets: &[Detection]) -> Vec<(f64, u8, usize)> {
+    dets.iter()
+        .map(|d| (d.score, d.n_faces, d.mask.count()))
+        .collect()
+}
+
 #[test]
 fn flat_tins_seen_from_above_give_no_detection() {
     // A tin 160 mm across and 60 mm tall: from high up its cap is a big flat face and its
@@ -793,22 +816,12 @@ fn flat_tins_seen_from_above_give_no_detection() {
     };
     let mut without_corner_test = 0;
     for el in [50.0, 60.0, 70.0, 80.0, 90.0] {
-        let s = Scene::with_elevation(el);
-        let tin = Obj::Cylinder {
-            base: s.on_table(0.0, 0.0, 0.0),
-            axis: s.up,
-            r: 80.0,
-            h: 60.0,
-        };
-        let (rgb, depth, owner) = s.render(&[tin]);
-        assert!(mask_of(&owner, 0).count() > 5000, "tin in view at {el}°");
+        let (rgb, depth) = upright_tin(el, 80.0, 60.0, 5000);
         let dets = detect_boxes(Some(&rgb), &depth, &k(), &cfg).unwrap();
         assert!(
             dets.is_empty(),
             "tin seen from {el}° detected: {:?}",
-            dets.iter()
-                .map(|d| (d.score, d.n_faces, d.mask.count()))
-                .collect::<Vec<_>>()
+            summary(&dets)
         );
         without_corner_test += detect_boxes(Some(&rgb), &depth, &k(), &premise)
             .unwrap()
@@ -816,6 +829,34 @@ fn flat_tins_seen_from_above_give_no_detection() {
     }
     // Premise: the silhouette test alone lets the cap through.
     assert!(without_corner_test >= 3, "{without_corner_test}");
+}
+
+#[test]
+fn small_upright_tins_give_no_two_face_detection() {
+    // A tin 50 mm across and 60 mm tall: its cap and a band of its mantle read as two
+    // perpendicular faces; the cap, the group's largest face, is a disc.
+    let cfg = DetectConfig::default();
+    let premise = DetectConfig {
+        face_min_corners: 0.0,
+        ..cfg.clone()
+    };
+    let mut without_test = 0;
+    for el in [30.0, 40.0, 50.0, 60.0] {
+        let (rgb, depth) = upright_tin(el, 25.0, 60.0, 1000);
+        let dets = detect_boxes(Some(&rgb), &depth, &k(), &cfg).unwrap();
+        assert!(
+            dets.iter().all(|d| d.n_faces < 2),
+            "tin seen from {el}° detected as a group: {:?}",
+            summary(&dets)
+        );
+        without_test += detect_boxes(Some(&rgb), &depth, &k(), &premise)
+            .unwrap()
+            .iter()
+            .filter(|d| d.n_faces >= 2)
+            .count();
+    }
+    // Premise: without the corner test of the group's largest face, the tin is a box.
+    assert!(without_test >= 3, "{without_test}");
 }
 
 /// Scene `scene` of the generated table set without distractors, seed 2026, as `detect_dev`
@@ -1890,46 +1931,4 @@ fn a_low_box_cut_off_near_the_table_is_filled_down_to_it() {
             prec(&d_on)
         );
     }
-}
-
-#[test]
-fn small_upright_tins_give_no_two_face_detection() {
-    // A tin 50 mm across and 60 mm tall at 1 m: its cap and a band of its mantle read as two
-    // perpendicular faces; the cap, the group's largest face, is a disc.
-    let cfg = DetectConfig::default();
-    let premise = DetectConfig {
-        face_min_corners: 0.0,
-        ..cfg.clone()
-    };
-    let mut without_test = 0;
-    for el in [30.0, 40.0, 50.0, 60.0] {
-        let s = Scene::with_elevation(el);
-        let tin = Obj::Cylinder {
-            base: s.on_table(0.0, 0.0, 0.0),
-            axis: s.up,
-            r: 25.0,
-            h: 60.0,
-        };
-        let (rgb, depth, owner) = s.render(&[tin]);
-        assert!(
-            mask_of(&owner, 0).count() > 1000,
-            "tin in view at {el}°: {} px",
-            mask_of(&owner, 0).count()
-        );
-        let dets = detect_boxes(Some(&rgb), &depth, &k(), &cfg).unwrap();
-        assert!(
-            dets.iter().all(|d| d.n_faces < 2),
-            "tin seen from {el}° detected as a group: {:?}",
-            dets.iter()
-                .map(|d| (d.score, d.n_faces, d.mask.count()))
-                .collect::<Vec<_>>()
-        );
-        without_test += detect_boxes(Some(&rgb), &depth, &k(), &premise)
-            .unwrap()
-            .iter()
-            .filter(|d| d.n_faces >= 2)
-            .count();
-    }
-    // Premise: without the corner test of the group's largest face, the tin is a box.
-    assert!(without_test >= 3, "{without_test}");
 }
