@@ -867,6 +867,70 @@ pub fn alternative_readings(
     }
 }
 
+/// Another reading of the extent that an estimate inferred ([`hidden_extent_readings`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HiddenReading {
+    /// The source's box with its inferred extent replaced; the face towards the camera stays.
+    pub pose: OrientedBox,
+    /// [`DetectConfig::hidden_reading_score_factor`](crate::detect::DetectConfig::hidden_reading_score_factor)
+    /// times the source's score.
+    pub score: f64,
+    /// Index of the source in `boxes`.
+    pub source: usize,
+}
+
+/// Other readings of the one extent that an estimate did not see (`boxes`: pose, score and
+/// observed axes of each, as [`BoxEstimate::observed_axes`]; only estimates with exactly one
+/// unobserved axis are read again): that extent as the larger of the two visible ones (a box
+/// standing on end taken for a flat one) and as half of itself (a flat one taken for a cube),
+/// each where it differs from the inferred extent by at least
+/// [`DetectConfig::hidden_reading_min_change`](crate::detect::DetectConfig::hidden_reading_min_change)
+/// of it and is at least `min_extent_mm` (mm). The box keeps its face towards the camera (the
+/// camera at the origin) and grows or shrinks away from it. Scored
+/// [`DetectConfig::hidden_reading_score_factor`](crate::detect::DetectConfig::hidden_reading_score_factor)
+/// times the source's score; 0 disables. The scene context's extent (support, neighbours,
+/// fallback; [`crate::context`]) is right for most boxes, but a wrong one costs the whole box.
+pub fn hidden_extent_readings(
+    boxes: &[(OrientedBox, f64, [bool; 3])],
+    min_extent_mm: f64,
+    cfg: &crate::detect::DetectConfig,
+) -> Vec<HiddenReading> {
+    let mut out = Vec::new();
+    if cfg.hidden_reading_score_factor <= 0.0 {
+        return out;
+    }
+    for (source, (pose, score, observed)) in boxes.iter().enumerate() {
+        let mut hidden = (0..3).filter(|&a| !observed[a]);
+        let (Some(a), None) = (hidden.next(), hidden.next()) else {
+            continue;
+        };
+        // The axis pointing away from the camera.
+        let mut away = pose.axis(a);
+        if away.dot(&pose.center_mm) < 0.0 {
+            away = -away;
+        }
+        let old = pose.size_mm[a];
+        let larger_visible = (0..3)
+            .filter(|&b| b != a)
+            .map(|b| pose.size_mm[b])
+            .fold(0.0, f64::max);
+        for new in [larger_visible, 0.5 * old] {
+            if (new - old).abs() < cfg.hidden_reading_min_change * old || new < min_extent_mm {
+                continue;
+            }
+            let mut p = *pose;
+            p.size_mm[a] = new;
+            p.center_mm += away * ((new - old) / 2.0);
+            out.push(HiddenReading {
+                pose: p,
+                score: cfg.hidden_reading_score_factor * score,
+                source,
+            });
+        }
+    }
+    out
+}
+
 /// Whether `a` and `b` share more than `tiled_union_max_shared` of the smaller one's volume:
 /// then they are not two boxes side by side, and neither unions nor repeat readings pair them.
 fn overlap_too_large(a: &OrientedBox, b: &OrientedBox, cfg: &crate::detect::DetectConfig) -> bool {
@@ -925,6 +989,60 @@ mod tests {
     use super::*;
     use crate::repeat::tests::carton_row;
     use nalgebra::Rotation3;
+
+    #[test]
+    fn hidden_extent_readings_keep_the_near_face_and_read_the_unseen_axis_again() {
+        let cfg = crate::detect::DetectConfig::default();
+        // A 300 × 200 mm top 1 m away, its inferred height 60 mm along z (away from the
+        // camera): the near face lies at z = 970.
+        let flat = OrientedBox {
+            rotation: Rotation3::identity(),
+            center_mm: Vector3::new(50.0, -20.0, 1000.0),
+            size_mm: Vector3::new(300.0, 200.0, 60.0),
+        };
+        // The same box with its z axis flipped: "away" is still +z in the camera frame.
+        let flipped = OrientedBox {
+            rotation: Rotation3::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI),
+            ..flat
+        };
+        let seen = [true, true, true];
+        let z_unseen = [true, true, false];
+        let boxes = [
+            (flat, 0.8, z_unseen),
+            (flat, 0.9, seen),
+            (flipped, 0.5, z_unseen),
+            (flat, 0.7, [true, false, false]),
+        ];
+        let r = hidden_extent_readings(&boxes, 15.0, &cfg);
+        assert_eq!(r.len(), 4, "{r:?}");
+        for (k, (src, score)) in [(0, 0.8), (0, 0.8), (2, 0.5), (2, 0.5)].iter().enumerate() {
+            assert_eq!(r[k].source, *src);
+            assert!((r[k].score - cfg.hidden_reading_score_factor * score).abs() < 1e-12);
+            let p = &r[k].pose;
+            // The visible extents and the near face stay.
+            assert!((p.size_mm.x - 300.0).abs() < 1e-9 && (p.size_mm.y - 200.0).abs() < 1e-9);
+            let near = p.center_mm.z - p.size_mm.z / 2.0;
+            assert!((near - 970.0).abs() < 1e-9, "near face at {near}");
+            assert!((p.center_mm.x - 50.0).abs() < 1e-9 && (p.center_mm.y + 20.0).abs() < 1e-9);
+        }
+        // The larger visible extent, then half the inferred one.
+        assert!((r[0].pose.size_mm.z - 300.0).abs() < 1e-9);
+        assert!((r[1].pose.size_mm.z - 30.0).abs() < 1e-9);
+        // Half of 60 mm is below a 40 mm minimum; 250 mm is within 25 % of 300 mm.
+        let tall = OrientedBox {
+            size_mm: Vector3::new(300.0, 200.0, 250.0),
+            ..flat
+        };
+        let r = hidden_extent_readings(&[(flat, 0.8, z_unseen), (tall, 0.8, z_unseen)], 40.0, &cfg);
+        let sizes: Vec<f64> = r.iter().map(|h| h.pose.size_mm.z).collect();
+        assert_eq!(sizes, vec![300.0, 125.0]);
+        // Off.
+        let off = crate::detect::DetectConfig {
+            hidden_reading_score_factor: 0.0,
+            ..cfg
+        };
+        assert!(hidden_extent_readings(&boxes, 15.0, &off).is_empty());
+    }
 
     /// A carton (400 × 300 × 200 mm, tilted) cut across x at `cut_mm` from its −x face, as
     /// two boxes; the second part is expressed in axes turned 90° about z (its x and y

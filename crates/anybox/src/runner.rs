@@ -147,16 +147,19 @@ pub fn run_frame(
 /// cartons ([`crate::pipeline::tiled_unions`], and [`crate::pipeline::gap_unions`] across a
 /// hidden gap), and the readings of an estimate by another's size
 /// ([`crate::pipeline::repeat_readings`]: the copies of a carton that a merged estimate
-/// repeats, a short estimate extended). Alternative readings carry `"alternative": true` in
+/// repeats, a short estimate extended), and other readings of an estimate's one unseen extent
+/// ([`crate::pipeline::hidden_extent_readings`]). Alternative readings carry `"alternative": true` in
 /// `extra`: the detector's ([`crate::detect::Detection::alternative`]), the unions, which
 /// also carry `"parts"` (the two detections' mask names), and the repeat readings, which carry
 /// `"split_of"` or `"extended_from"` and `"like"` (the source and the repeated detection's
-/// mask names); drop them where one reading per box is wanted. Where a repeat reading
+/// mask names), and the readings of an unseen extent, which carry `"hidden_of"` (the source's
+/// mask name); drop them where one reading per box is wanted. Where a repeat reading
 /// outranks its source ([`crate::pipeline::RepeatReading::promoted`]), the roles swap: the
 /// reading's boxes carry no `"alternative"` and the source carries `"alternative": true`
 /// and `"outranked": "split"` or `"extended"`, its score scaled by
 /// `detect.repeat_split_score_factor`. Last, the detections that the frame's other
-/// detections measure alike score higher ([`crate::pipeline::ranked_scores`]).
+/// detections measure alike score higher ([`crate::pipeline::ranked_scores`]), and the
+/// readings of an unseen extent are scored from those final scores.
 pub fn run_detected_frame(
     rgb: Option<&anybox_io::RgbImage>,
     depth: &DepthMap,
@@ -225,8 +228,34 @@ pub fn run_detected_frame(
     for (&i, s) in idx.iter().zip(ranked) {
         out.estimates[i].score = s;
     }
+    // Other readings of an inferred extent, from the final scores.
+    let inferred: Vec<(anybox_geom::OrientedBox, f64, [bool; 3])> = idx
+        .iter()
+        .zip(&scored)
+        .filter_map(|(&i, &(pose, _))| {
+            let rec = &out.estimates[i];
+            Some((pose, rec.score, observed_axes(rec)?))
+        })
+        .collect();
+    let min_mm = config.context.min_hidden_mm;
+    for h in crate::pipeline::hidden_extent_readings(&inferred, min_mm, &config.detect) {
+        let source = out.estimates[idx[h.source]].extra.get("mask").cloned();
+        alts.push(alternative_record(
+            &h.pose,
+            h.score,
+            time,
+            [("hidden_of", serde_json::json!(source))],
+        ));
+    }
     out.estimates.extend(alts);
     Ok(out)
+}
+
+/// A record's `observed_axes` (as [`to_record`] writes them).
+fn observed_axes(rec: &EstimateRecord) -> Option<[bool; 3]> {
+    let v = rec.extra.get("observed_axes")?.as_array()?;
+    let b: Vec<bool> = v.iter().filter_map(|x| x.as_bool()).collect();
+    b.try_into().ok()
 }
 
 /// The record of an alternative reading (scene and image id 0, as the frame's records):
@@ -436,13 +465,40 @@ mod tests {
             improved |= best(&u) > 0.5 && parts_best <= 0.5;
         }
         assert!(improved, "the union finds the carton its halves miss");
-        // Switched off (unions, repeat readings and the detector's alternatives): the same
+        // The readings of an unseen extent: flagged, scored from a primary record with one
+        // unobserved axis, whose other two extents they keep.
+        let hidden: Vec<&EstimateRecord> = out
+            .estimates
+            .iter()
+            .filter(|r| r.extra.contains_key("hidden_of"))
+            .collect();
+        assert!(!hidden.is_empty(), "no reading of an unseen extent here");
+        for h in hidden {
+            assert_eq!(h.extra.get("alternative"), Some(&serde_json::json!(true)));
+            let src = by_name(&h.extra["hidden_of"]);
+            let obs = observed_axes(src).expect("written by to_record");
+            assert_eq!(obs.iter().filter(|o| !**o).count(), 1);
+            let f = config.detect.hidden_reading_score_factor;
+            assert!((h.score - f * src.score).abs() < 1e-12);
+            let mut a: Vec<f64> = h.size.to_vec();
+            let mut b: Vec<f64> = src.size.to_vec();
+            a.sort_by(f64::total_cmp);
+            b.sort_by(f64::total_cmp);
+            let kept = a
+                .iter()
+                .filter(|x| b.iter().any(|y| (*x - y).abs() < 1e-6))
+                .count();
+            assert!(kept >= 2, "{a:?} from {b:?}");
+        }
+        // Switched off (unions, repeat readings, readings of unseen extents and the
+        // detector's alternatives): the same
         // primary records, estimated alike (alternatives share no extents with their
         // neighbours).
         let mut off = config.clone();
         off.detect.tiled_union_score_factor = 0.0;
         off.detect.repeat_split_score_factor = 0.0;
         off.detect.alternatives_max = 0;
+        off.detect.hidden_reading_score_factor = 0.0;
         let out0 = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &off).unwrap();
         assert!(out0
             .estimates
@@ -461,7 +517,7 @@ mod tests {
             .estimates
             .iter()
             .filter(|r| {
-                !["parts", "split_of", "extended_from"]
+                !["parts", "split_of", "extended_from", "hidden_of"]
                     .iter()
                     .any(|k| r.extra.contains_key(*k))
             })
