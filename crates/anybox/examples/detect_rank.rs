@@ -10,7 +10,8 @@
 //! configuration as a partial `Config`, e.g. `{"scale":{"measured_start":false}}`), `CSV=<path>`
 //! (one row per estimate: set, frame, score, detector score, estimator score, faces,
 //! kind (0 detection, 1 the detector's alternative, 2 union of two detections, 3 and 4 a
-//! repeat reading's split and extension), mask pixels, depth penalty, observed axes, best 3D
+//! repeat reading's split and extension, 5 a reading of an unseen extent), mask pixels, depth
+//! penalty, observed axes, best 3D
 //! IoU with a counted ground truth and with an ignored one, that ground truth's index, sizes
 //! (mm, sorted), the largest share of its volume inside a higher-scored estimate of the
 //! frame, how many of the frame's other estimates lie at least 60 % inside it, its mask's
@@ -18,7 +19,7 @@
 //! truth overlapped by IoU > 0.3 as `k:iou` (`i` before ignored ones)).
 //! The estimates are those of `anybox bench`'s detection rows (`runner::run_detected_frame`):
 //! the detections and their alternative readings (`pipeline::alternative_readings`: the
-//! unions and the repeat readings).
+//! unions and the repeat readings; `pipeline::hidden_extent_readings`).
 
 use anybox::bench::detection_sets;
 use anybox::config::Config;
@@ -82,9 +83,12 @@ fn main() {
             );
             // Rows: (pose, score, detector score, estimator score, faces, kind, mask pixels,
             // depth penalty, observed axes). Kind: 0 detection, 1 the detector's alternative,
-            // 2 union, 3 repeat split, 4 repeat extension (as `runner::run_detected_frame`).
+            // 2 union, 3 repeat split, 4 repeat extension, 5 a reading of an unseen extent (as
+            // `runner::run_detected_frame`).
             type Row = (OrientedBox, f64, f64, f64, char, u8, usize, f64, usize);
             let mut rows: Vec<Row> = Vec::new();
+            // Observed axes per row (for the readings of an unseen extent).
+            let mut observed: Vec<[bool; 3]> = Vec::new();
             // Mask pixels on the image's outermost rows and columns, per row (0 for readings
             // that have no mask of their own).
             let mut border: Vec<usize> = Vec::new();
@@ -100,6 +104,7 @@ fn main() {
                         .count(),
                 );
                 let faces = m.faces.and_then(|f| char::from_digit(f.into(), 10));
+                observed.push(e.observed_axes);
                 rows.push((
                     e.pose,
                     pipeline::detection_score(m.score, m.faces, &e, &cfg.detect),
@@ -143,6 +148,15 @@ fn main() {
                         0,
                     ));
                 }
+            }
+            // Readings of an unseen extent, from the final scores (as the runner does).
+            let inferred: Vec<(OrientedBox, f64, [bool; 3])> = primary
+                .iter()
+                .map(|&i| (rows[i].0, rows[i].1, observed[i]))
+                .collect();
+            let min_mm = est_cfg.context.min_hidden_mm;
+            for h in pipeline::hidden_extent_readings(&inferred, min_mm, &cfg.detect) {
+                rows.push((h.pose, h.score, f64::NAN, f64::NAN, '?', 5, 0, f64::NAN, 2));
             }
             // Interpenetration with the frame's other estimates: the largest share of this
             // one's volume inside a higher-scored one, and how many others lie at least 60 %
