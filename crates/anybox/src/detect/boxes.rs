@@ -1079,28 +1079,36 @@ fn score_group(
 /// ((1 − `CORNER`)²). About 1 for a rectangle, even one with holes; 0 for a disc, whose
 /// rim passes inside the corner squares (at `CORNER` = 0.75, (0.75, 0.75) is 1.06 radii out).
 fn corner_occupancy(g: &Grid, cells: &[u32], bx: &OrientedBox) -> f64 {
-    const CORNER: f64 = 0.75;
     let (a1, a2) = (bx.axis(1), bx.axis(2));
     let (h1, h2) = (bx.size_mm.y / 2.0, bx.size_mm.z / 2.0);
     if cells.is_empty() || h1 <= 0.0 || h2 <= 0.0 {
         return 0.0;
     }
     let c = bx.center_mm;
-    let n = cells
-        .iter()
-        .filter(|&&i| {
+    corner_share(
+        cells.len(),
+        cells.iter().map(|&i| {
             let d = v3(&g.p[i as usize]) - c;
-            (d.dot(&a1) / h1).abs() > CORNER && (d.dot(&a2) / h2).abs() > CORNER
-        })
+            (d.dot(&a1) / h1, d.dot(&a2) / h2)
+        }),
+    )
+}
+
+/// The share of `n` points whose offsets from a rectangle's middle, in half-extents
+/// (`offsets`), are both beyond `CORNER`, over the share a uniformly covered rectangle puts
+/// there ((1 − `CORNER`)²): [`corner_occupancy`] and [`face_corner_share`].
+fn corner_share(n: usize, offsets: impl Iterator<Item = (f64, f64)>) -> f64 {
+    const CORNER: f64 = 0.75;
+    let k = offsets
+        .filter(|(a, b)| a.abs() > CORNER && b.abs() > CORNER)
         .count();
-    n as f64 / cells.len() as f64 / ((1.0 - CORNER) * (1.0 - CORNER))
+    k as f64 / n as f64 / ((1.0 - CORNER) * (1.0 - CORNER))
 }
 
 /// [`corner_occupancy`] of one face of a group, in its own rectangle: along the in-plane
 /// axes `e1` and `e2`, its cells' full extents (0.5 % quantiles, as a lone face's) and their
 /// middle.
 fn face_corner_share(g: &Grid, cells: &[u32], e1: &Vector3<f64>, e2: &Vector3<f64>) -> f64 {
-    const CORNER: f64 = 0.75;
     let t1: Vec<f64> = cells
         .iter()
         .map(|&i| v3(&g.p[i as usize]).dot(e1))
@@ -1117,12 +1125,12 @@ fn face_corner_share(g: &Grid, cells: &[u32], e1: &Vector3<f64>, e2: &Vector3<f6
         return 0.0;
     }
     let (c1, c2) = ((lo1 + hi1) / 2.0, (lo2 + hi2) / 2.0);
-    let n = t1
-        .iter()
-        .zip(&t2)
-        .filter(|&(a, b)| ((a - c1) / h1).abs() > CORNER && ((b - c2) / h2).abs() > CORNER)
-        .count();
-    n as f64 / cells.len() as f64 / ((1.0 - CORNER) * (1.0 - CORNER))
+    corner_share(
+        cells.len(),
+        t1.iter()
+            .zip(&t2)
+            .map(|(a, b)| ((a - c1) / h1, (b - c2) / h2)),
+    )
 }
 
 /// Figure or ground: of the valid cells in a ring `FRAME_RING` cells wide around a lone face,
