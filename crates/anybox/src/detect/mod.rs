@@ -188,6 +188,17 @@ pub struct DetectConfig {
     /// Bridged halves overlap along the strip by at least this fraction of the longer.
     /// Default 0.7.
     pub tape_overlap: f64,
+    /// A strip is bridged whatever the tilt of its own fitted plane (the halves must still be
+    /// one plane, and the strip lie in it) when it runs along at least this fraction of the
+    /// halves' overlap; shorter pieces must also be coplanar with the halves by their own
+    /// fit, as every strip was before. A tape a few cells wide fits a plane tilted about its
+    /// axis by depth noise, which left taped tops in two; a short piece's axis is as unsure,
+    /// and with any length (0) a piece cut off at the joint between two cartons bridged the
+    /// far half of one top to the near half of the next (seed 2026, pallet view 40). Default
+    /// 0.4 (bench, 48 views, six seeds 2026 / 7 / 11 / 3 / 5 / 13, mean AP@0.5 against 0:
+    /// pallets 0.6550 → 0.6573, tables −0.001, shelves −0.001, all from one box of seed 13
+    /// whose bridge was a strip perpendicular to the top; 0.25: as 0).
+    pub tape_tilted_min_length: f64,
     /// Regions with fewer cells are dropped (noise, edge bands); also the smallest piece a
     /// seam line may cut off a colour patch. Default 12 (bench, 48 views per set, seeds 2026 /
     /// 7 / 11, mean AP@0.5 of the 15 rows against 20, the default before: 0.6479 → 0.6523;
@@ -779,6 +790,7 @@ impl Default for DetectConfig {
             tape_min_contrast: 25.0,
             tape_colour_delta: 25.0,
             tape_overlap: 0.7,
+            tape_tilted_min_length: 0.4,
             min_region_cells: 12,
             plane_tol_abs_mm: 4.0,
             plane_tol_quad_mm: 6.0,
