@@ -72,6 +72,16 @@ pub(crate) fn pair_halves(
             taped[l as usize] |= strip[i];
         }
     }
+    // A patch with a band of tape along its own middle is a whole top (tape runs along a
+    // carton's flap seam), not a half whose flap seam is the line beside it.
+    if cfg.halves_tape_band_contrast > 0.0 {
+        for (l, r) in regions.iter().enumerate() {
+            if !taped[l] && is_face(r, cfg) {
+                taped[l] = rect_of(g, l, r, &cells[l], cfg)
+                    .is_some_and(|h| tape_along_middle(g, &h, &cells[l], cfg));
+            }
+        }
+    }
     let patches = Patches {
         regions,
         cells,
@@ -394,6 +404,41 @@ fn rect_of(
         len_mm,
         width_mm,
         colour: Vector3::from(r.colour),
+    })
+}
+
+/// Whether the patch `h` (its `cells`) shows a band of another colour along the middle of its
+/// long axis over its whole length: in each quarter of its length, the cells within a tenth
+/// of its width of the centre line differ in mean colour from those beyond a quarter of its
+/// width by at least `halves_tape_band_contrast` (RGB levels), with at least 4 cells in each.
+fn tape_along_middle(g: &Grid, h: &Half, cells: &[usize], cfg: &DetectConfig) -> bool {
+    let mut sums = [[(Vector3::<f64>::zeros(), 0usize); 2]; 4];
+    for &i in cells {
+        let d = v3(&g.p[i]) - h.centre;
+        let (x, y) = (
+            d.dot(&h.long) / h.len_mm + 0.5,
+            d.dot(&h.across) / h.width_mm,
+        );
+        let q = (x * 4.0).floor();
+        if !(0.0..4.0).contains(&q) {
+            continue;
+        }
+        let band = if y.abs() < 0.1 {
+            0
+        } else if y.abs() > 0.25 {
+            1
+        } else {
+            continue;
+        };
+        let c = g.c[i];
+        let s = &mut sums[q as usize][band];
+        s.0 += Vector3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+        s.1 += 1;
+    }
+    sums.iter().all(|[(m, nm), (o, no)]| {
+        *nm >= 4
+            && *no >= 4
+            && (m / *nm as f64 - o / *no as f64).norm() >= cfg.halves_tape_band_contrast
     })
 }
 
