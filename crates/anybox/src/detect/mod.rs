@@ -199,6 +199,15 @@ pub struct DetectConfig {
     /// pallets 0.6550 → 0.6573, tables −0.001, shelves −0.001, all from one box of seed 13
     /// whose bridge was a strip perpendicular to the top; 0.25: as 0).
     pub tape_tilted_min_length: f64,
+    /// ... and no strip's own plane may lie further than this from the halves', degrees:
+    /// depth noise tilts a strip a few cells wide (bridged strips, seed 2026, 48 pallet and
+    /// 48 table views: 143 of 159 within 15°, 15 at 15–45°, a few beyond), while the lit
+    /// sliver of a lower carton's top between the fronts of two stacked cartons lies at
+    /// 93–120° and bridged them (seed 2026, pallet view 19 of 24). Default 75 (bench, 48
+    /// views, six seeds 2026 / 7 / 11 / 3 / 5 / 13, mean AP@0.5 against no limit: pallets
+    /// 0.6620 → 0.6627, tables +0.0001 to +0.0004, shelves unchanged; 45: pallets 0.6605, as
+    /// it also kept out printed bands across side faces seen at a grazing angle).
+    pub tape_strip_max_tilt_deg: f64,
     /// Regions with fewer cells are dropped (noise, edge bands); also the smallest piece a
     /// seam line may cut off a colour patch. Default 12 (bench, 48 views per set, seeds 2026 /
     /// 7 / 11, mean AP@0.5 of the 15 rows against 20, the default before: 0.6479 → 0.6523;
@@ -799,6 +808,7 @@ impl Default for DetectConfig {
             tape_colour_delta: 25.0,
             tape_overlap: 0.7,
             tape_tilted_min_length: 0.4,
+            tape_strip_max_tilt_deg: 75.0,
             min_region_cells: 12,
             plane_tol_abs_mm: 4.0,
             plane_tol_quad_mm: 6.0,

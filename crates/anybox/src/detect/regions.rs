@@ -556,6 +556,7 @@ pub(crate) fn bridge_tape(
     }
     let pt = |i: usize| Vector3::new(g.p[i][0] as f64, g.p[i][1] as f64, g.p[i][2] as f64);
     let cos_par = cfg.perpendicular_tol_deg.to_radians().cos();
+    let cos_tilt = cfg.tape_strip_max_tilt_deg.to_radians().cos();
     let coplanar = |a: &Region, b: &Region| -> bool {
         a.normal.dot(&b.normal) >= cos_par
             && a.dist(&[
@@ -663,6 +664,12 @@ pub(crate) fn bridge_tape(
                 {
                     continue;
                 }
+                // Noise tilts a strip's plane by up to 20–40°; a surface across the face is
+                // tilted by 90°: the lit sliver of a lower carton's top between the fronts of
+                // two stacked cartons bridged them.
+                if rt.normal.dot(&ra.normal).min(rt.normal.dot(&rb.normal)) < cos_tilt {
+                    continue;
+                }
                 let (x0, x1) = (a0.max(b0), a1.min(b1));
                 let ra_ = root(&mut parent, a);
                 let rb_ = root(&mut parent, b);
@@ -748,14 +755,15 @@ mod tests {
             for u in 0..W {
                 let x = (u as f64 - k.cx) * pitch_mm;
                 let y = (v as f64 - k.cy) * pitch_mm;
-                let (label, z) = if STRIP.contains(&u) {
-                    let dx = (u as f64 - mid) * pitch_mm;
-                    (1, 1000.0 + dx * strip_tilt_deg.to_radians().tan())
+                let (label, x, z) = if STRIP.contains(&u) {
+                    // Turned about its centre line: the strip keeps its width.
+                    let (dx, t) = ((u as f64 - mid) * pitch_mm, strip_tilt_deg.to_radians());
+                    (1, x - dx + dx * t.cos(), 1000.0 + dx * t.sin())
                 } else if u < STRIP.start {
-                    (0, 1000.0)
+                    (0, x, 1000.0)
                 } else {
                     let dx = (u - STRIP.end) as f64 * pitch_mm;
-                    (2, 1000.0 + dx * half_tilt_deg.to_radians().tan())
+                    (2, x, 1000.0 + dx * half_tilt_deg.to_radians().tan())
                 };
                 p.push([x as f32, y as f32, z as f32]);
                 let kept = label != 1 || strip_rows.contains(&v);
@@ -813,7 +821,7 @@ mod tests {
     }
 
     #[test]
-    fn tape_does_not_bridge_halves_off_one_plane_or_across_a_strip_of_their_colour_or_a_tilted_piece(
+    fn tape_does_not_bridge_off_one_plane_across_own_colour_by_a_tilted_piece_or_a_crosswise_sliver(
     ) {
         // The right half folds away by 30°: another face, not the top's other half.
         assert_eq!(bridged(0.0, 30.0, PALE, 0..H), (3, false));
@@ -822,5 +830,17 @@ mod tests {
         // A short piece whose own plane is tilted: its axis is as unsure as its plane
         // (`tape_tilted_min_length`).
         assert_eq!(bridged(22.0, 0.0, PALE, 15..25), (3, false));
+        // A surface across the face (the lit sliver of a lower carton's top between two
+        // stacked cartons' fronts), however long (`tape_strip_max_tilt_deg`).
+        assert_eq!(bridged(85.0, 0.0, PALE, 0..H), (3, false));
+        // Premise of the above: only the tilt test keeps it out.
+        let (g, mut labels) = taped_top(85.0, 0.0, PALE, 0..H);
+        let cfg = DetectConfig {
+            tape_strip_max_tilt_deg: 90.0,
+            ..DetectConfig::default()
+        };
+        let regions = fit_regions(&g, &labels, 3, &cfg);
+        let mut strip = vec![false; W * H];
+        assert_eq!(bridge_tape(&g, &mut labels, &regions, &mut strip, &cfg), 1);
     }
 }
