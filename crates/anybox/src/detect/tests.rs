@@ -921,6 +921,24 @@ fn best_iou_among(dets: &[Detection], gt: &Mask) -> f64 {
     dets.iter().map(|d| d.mask.iou(gt)).fold(0.0, f64::max)
 }
 
+/// The visible masks of the boxes of `v` whose extents, sorted, are `sorted_mm` (within 1 mm)
+/// and whose visible fraction is at least `min_visib`: the cartons of one product.
+fn visible_masks_of_size(
+    v: &anybox_synth::SynthView,
+    sorted_mm: [f64; 3],
+    min_visib: f64,
+) -> Vec<&Mask> {
+    v.boxes
+        .iter()
+        .filter(|b| {
+            let mut s = b.pose.size_mm;
+            s.as_mut_slice().sort_by(f64::total_cmp);
+            b.visib_fract >= min_visib && (s - Vector3::from(sorted_mm)).abs().max() < 1.0
+        })
+        .map(|b| &b.mask_visib)
+        .collect()
+}
+
 #[test]
 fn a_strip_of_the_halves_own_colour_is_no_tape_to_bridge() {
     // Generated pallet scene (seed 2026, scene 38, `SEED=2026 ONLY=pallet VIEW=38` with
@@ -936,16 +954,7 @@ fn a_strip_of_the_halves_own_colour_is_no_tape_to_bridge() {
         ..SynthConfig::default()
     };
     let v = generate_view(&sc, 38, 0);
-    let layer: Vec<&Mask> = v
-        .boxes
-        .iter()
-        .filter(|b| {
-            let mut s = b.pose.size_mm;
-            s.as_mut_slice().sort_by(f64::total_cmp);
-            b.visib_fract >= 0.5 && (s - Vector3::new(164.0, 232.0, 282.0)).abs().max() < 1.0
-        })
-        .map(|b| &b.mask_visib)
-        .collect();
+    let layer = visible_masks_of_size(&v, [164.0, 232.0, 282.0], 0.5);
     assert_eq!(layer.len(), 12, "the generator's layer changed");
     let found = |cfg: &DetectConfig| -> Vec<f64> {
         let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
@@ -1349,16 +1358,7 @@ fn taped_tops_side_by_side_are_not_taken_for_halves() {
     // one top, and the two came out as one box. The two front cartons are checked (the back
     // ones are 61 % and 62 % visible).
     let v = pallet_view(2026, 48, 33);
-    let layer: Vec<&Mask> = v
-        .boxes
-        .iter()
-        .filter(|b| {
-            let mut s = b.pose.size_mm;
-            s.as_mut_slice().sort_by(f64::total_cmp);
-            b.visib_fract >= 0.9 && (s - Vector3::new(195.0, 304.0, 596.0)).abs().max() < 1.0
-        })
-        .map(|b| &b.mask_visib)
-        .collect();
+    let layer = visible_masks_of_size(&v, [195.0, 304.0, 596.0], 0.9);
     assert_eq!(layer.len(), 2, "the generator's layer changed");
     let found = best_primary_ious(&v, &layer, &DetectConfig::default());
     assert!(found.iter().all(|&x| x > 0.85), "best mask IoUs {found:?}");
