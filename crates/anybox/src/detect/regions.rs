@@ -609,8 +609,9 @@ pub(crate) fn bridge_tape(
             }
             (a, b)
         };
-        // The strip lies in the halves' plane. Its own plane is tested against theirs only
-        // where it is short (below): a strip a few cells wide fits a plane tilted about its
+        // The strip lies in the halves' plane. Its own fitted plane is held to theirs loosely
+        // (below: within the halves' tolerance only where it is short, else within
+        // `tape_strip_max_tilt_deg`): a strip a few cells wide fits a plane tilted about its
         // axis by depth noise (17–23° on a 21 mm tape at 1.6 m).
         let sides: Vec<usize> = nb[t]
             .iter()
