@@ -786,7 +786,8 @@ mod tests {
         (g, labels)
     }
 
-    /// Regions left after bridging, and whether the strip's cells were marked as bridged.
+    /// Regions left after bridging the [`taped_top`] under the default config, and whether
+    /// the strip's cells were marked as bridged.
     fn bridged(
         strip_tilt_deg: f64,
         half_tilt_deg: f64,
@@ -794,10 +795,27 @@ mod tests {
         strip_rows: std::ops::Range<usize>,
     ) -> (usize, bool) {
         let cfg = DetectConfig::default();
+        bridged_with(
+            &cfg,
+            strip_tilt_deg,
+            half_tilt_deg,
+            strip_colour,
+            strip_rows,
+        )
+    }
+
+    /// [`bridged`] under `cfg`.
+    fn bridged_with(
+        cfg: &DetectConfig,
+        strip_tilt_deg: f64,
+        half_tilt_deg: f64,
+        strip_colour: [f32; 3],
+        strip_rows: std::ops::Range<usize>,
+    ) -> (usize, bool) {
         let (g, mut labels) = taped_top(strip_tilt_deg, half_tilt_deg, strip_colour, strip_rows);
-        let regions = fit_regions(&g, &labels, 3, &cfg);
+        let regions = fit_regions(&g, &labels, 3, cfg);
         let mut strip = vec![false; W * H];
-        let n = bridge_tape(&g, &mut labels, &regions, &mut strip, &cfg);
+        let n = bridge_tape(&g, &mut labels, &regions, &mut strip, cfg);
         (n, strip.iter().any(|&s| s))
     }
 
@@ -835,13 +853,10 @@ mod tests {
         // stacked cartons' fronts), however long (`tape_strip_max_tilt_deg`).
         assert_eq!(bridged(85.0, 0.0, PALE, 0..H), (3, false));
         // Premise of the above: only the tilt test keeps it out.
-        let (g, mut labels) = taped_top(85.0, 0.0, PALE, 0..H);
         let cfg = DetectConfig {
             tape_strip_max_tilt_deg: 90.0,
             ..DetectConfig::default()
         };
-        let regions = fit_regions(&g, &labels, 3, &cfg);
-        let mut strip = vec![false; W * H];
-        assert_eq!(bridge_tape(&g, &mut labels, &regions, &mut strip, &cfg), 1);
+        assert_eq!(bridged_with(&cfg, 85.0, 0.0, PALE, 0..H).0, 1);
     }
 }
