@@ -570,11 +570,14 @@ pub(crate) struct Raw {
 }
 
 /// Groups faces into box candidates and scores them. Returns candidates sorted by score.
+/// With `corner_alternatives` (colour patches: see [`DetectConfig::corner_alternatives`]), a
+/// three-face merge refused only by a corner contact's short shared edge is scored as well.
 pub(crate) fn group_candidates(
     g: &Grid,
     labels: &[u32],
     regions: &[Region],
     on_support: &[bool],
+    corner_alternatives: bool,
     cfg: &DetectConfig,
 ) -> Vec<Raw> {
     let n = regions.len();
@@ -682,16 +685,16 @@ pub(crate) fn group_candidates(
         let (lo, hi) = robust_range(&mut vals, cfg.extent_quantile);
         hi - lo
     };
+    // Convex edge: each face's centroid lies behind the other face's plane.
+    let convex = |a: usize, b: usize| -> bool {
+        let (ra, rb) = (&regions[a], &regions[b]);
+        let m = cfg.convex_margin_mm;
+        (rb.centroid - ra.centroid).dot(&ra.normal) <= -m
+            && (ra.centroid - rb.centroid).dot(&rb.normal) <= -m
+    };
     let compatible = |a: usize, b: usize| -> bool {
         let (ra, rb) = (&regions[a], &regions[b]);
-        if !perp(a, b) {
-            return false;
-        }
-        // Convex edge: each face's centroid lies behind the other face's plane.
-        let m = cfg.convex_margin_mm;
-        if (rb.centroid - ra.centroid).dot(&ra.normal) > -m
-            || (ra.centroid - rb.centroid).dot(&rb.normal) > -m
-        {
+        if !perp(a, b) || !convex(a, b) {
             return false;
         }
         // The shared edge has about the same length on both faces.
@@ -729,20 +732,37 @@ pub(crate) fn group_candidates(
     pairs.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
     let mut group_of: Vec<usize> = (0..n).collect();
     let mut members: Vec<Vec<usize>> = (0..n).map(|i| vec![i]).collect();
+    let mut extra: Vec<Vec<usize>> = Vec::new();
     for ((a, b), _) in pairs {
         let (a, b) = (a as usize, b as usize);
         let (ga, gb) = (group_of[a], group_of[b]);
         if ga == gb || members[ga].len() + members[gb].len() > 3 {
             continue;
         }
-        let ok = members[ga].iter().all(|&x| {
-            members[gb].iter().all(|&y| {
-                perp(x, y)
-                    && (!contact.contains_key(&(x.min(y) as u32, x.max(y) as u32))
-                        || compatible(x, y))
+        // Whether every pair of faces across the two groups may be faces of one box; `loose`
+        // holds pairs other than (a, b) to convexity only.
+        let fits = |loose: bool| {
+            members[ga].iter().all(|&x| {
+                members[gb].iter().all(|&y| {
+                    perp(x, y)
+                        && (!contact.contains_key(&(x.min(y) as u32, x.max(y) as u32))
+                            || if loose && (x, y) != (a, b) && (x, y) != (b, a) {
+                                convex(x, y)
+                            } else {
+                                compatible(x, y)
+                            })
+                })
             })
-        });
-        if !ok {
+        };
+        if !fits(false) {
+            if corner_alternatives && fits(true) {
+                let mut union: Vec<usize> =
+                    members[ga].iter().chain(&members[gb]).copied().collect();
+                union.sort_unstable();
+                if !extra.contains(&union) {
+                    extra.push(union);
+                }
+            }
             continue;
         }
         let moved = std::mem::take(&mut members[gb]);
@@ -761,6 +781,7 @@ pub(crate) fn group_candidates(
                 && !(mem.len() == 1 && touches_curved[mem[0]])
         })
         .map(|(_, mem)| mem)
+        .chain(extra.iter().filter(|mem| mem.iter().all(|&f| face[f])))
         .collect();
     // Groups are scored independently: in parallel (the order is kept).
     let mut out: Vec<Raw> = groups
