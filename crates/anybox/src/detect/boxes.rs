@@ -75,8 +75,9 @@ pub(crate) fn support_mask(
             members[l as usize].push(i);
         }
     }
-    // (surface index or None for a RANSAC plane, plane, bounds-the-scene, things-stand-on-it)
-    let mut cands: Vec<(Option<usize>, Region, bool, bool)> = Vec::new();
+    // (surface index or None for a RANSAC plane, plane, bounds-the-scene, things-stand-on-it,
+    // share under its rim)
+    let mut cands: Vec<(Option<usize>, Region, bool, bool, f64)> = Vec::new();
     let big: Vec<usize> = (0..surfaces.len())
         .filter(|&r| {
             surfaces[r].area_mm2 >= cfg.support_small_area_mm2
@@ -84,7 +85,7 @@ pub(crate) fn support_mask(
         })
         .collect();
     // The surfaces' tests and the RANSAC planes are independent.
-    let (tests, ransac): (Vec<(bool, bool)>, _) = rayon::join(
+    let (tests, ransac): (Vec<(bool, bool, f64)>, _) = rayon::join(
         || {
             big.par_iter()
                 .map(|&r| support_tests(g, &surfaces[r], &members[r], cfg))
@@ -92,11 +93,12 @@ pub(crate) fn support_mask(
         },
         || ransac.unwrap_or_else(|| ransac_planes(g, cfg)),
     );
-    for (&r, (strong, standing)) in big.iter().zip(tests) {
-        cands.push((Some(r), surfaces[r].clone(), strong, standing));
+    for (&r, (strong, standing, rim)) in big.iter().zip(tests) {
+        cands.push((Some(r), surfaces[r].clone(), strong, standing, rim));
     }
+    // RANSAC planes are not held to the layer test: found by plane alone, they have no rim.
     for (reg, strong, standing) in ransac {
-        cands.push((None, reg, strong, standing));
+        cands.push((None, reg, strong, standing, 0.0));
     }
     // "Up": the normal of the plane that bounds the scene (the floor), picked by
     // `up_from_planes`. Things stand on planes parallel to it (tables, shelf boards); a
@@ -117,29 +119,32 @@ pub(crate) fn support_mask(
     order.sort_by(|&a, &b| cands[b].1.area_mm2.total_cmp(&cands[a].1.area_mm2));
     let mut accept = vec![false; cands.len()];
     for &c in &order {
-        let (_, reg, strong, standing) = &cands[c];
+        let (_, reg, strong, standing, rim) = &cands[c];
         let parallel = up.is_none_or(|u| u.dot(&reg.normal).abs() >= cos_up);
+        let above_support = order.iter().any(|&o| {
+            accept[o]
+                && cands[o].1.normal.dot(&reg.normal) >= cos_up
+                && cands[o].1.dist(&[
+                    reg.centroid.x as f32,
+                    reg.centroid.y as f32,
+                    reg.centroid.z as f32,
+                ]) > cfg.support_side_margin_mm
+        });
+        // A layer of cartons: its tops over a support, the cartons' bodies under its rim.
+        let layer = cfg.support_layer_min_fraction > 0.0
+            && *rim >= cfg.support_layer_min_fraction
+            && above_support;
         accept[c] = if reg.area_mm2 >= cfg.support_min_area_mm2 {
-            *strong || (*standing && parallel)
+            *strong || (*standing && parallel && !layer)
         } else {
-            *standing
-                && parallel
-                && !order.iter().any(|&o| {
-                    accept[o]
-                        && cands[o].1.normal.dot(&reg.normal) >= cos_up
-                        && cands[o].1.dist(&[
-                            reg.centroid.x as f32,
-                            reg.centroid.y as f32,
-                            reg.centroid.z as f32,
-                        ]) > cfg.support_side_margin_mm
-                })
+            *standing && parallel && !above_support
         };
     }
     if log::log_enabled!(log::Level::Debug) {
         for c in &cands {
             log::debug!(
-                "support cand {:?} area {:.0} n {} normal {:.2} {:.2} {:.2} strong {} standing {} up {:?}",
-                c.0, c.1.area_mm2, c.1.n, c.1.normal.x, c.1.normal.y, c.1.normal.z, c.2, c.3, up
+                "support cand {:?} area {:.0} n {} normal {:.2} {:.2} {:.2} strong {} standing {} rim {:.3} up {:?}",
+                c.0, c.1.area_mm2, c.1.n, c.1.normal.x, c.1.normal.y, c.1.normal.z, c.2, c.3, c.4, up
             );
         }
     }
@@ -147,7 +152,7 @@ pub(crate) fn support_mask(
     let mut cands: Vec<_> = cands.into_iter().zip(accept).collect();
     cands.sort_by_key(|c| c.0 .0.is_none());
     let mut n_surface_planes = 0;
-    for ((src, reg, _, _), accepted) in cands {
+    for ((src, reg, _, _, _), accepted) in cands {
         if accepted {
             if let Some(r) = src {
                 is_support[r] = true;
@@ -233,8 +238,9 @@ pub(crate) fn drop_support_fragments(
 }
 
 /// Support tests of a plane with its member cells: (at least `support_always_area_mm2` or
-/// (almost) nothing behind it, things standing on it).
-fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) -> (bool, bool) {
+/// (almost) nothing behind it, things standing on it, the cells under its rim as a share of
+/// its own; see [`DetectConfig::support_layer_min_fraction`]).
+fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) -> (bool, bool, f64) {
     // Things standing on the plane: cells in front of it whose foot (projection onto the
     // plane) lies inside the member cells' convex footprint.
     let t = if reg.normal.x.abs() < 0.9 {
@@ -272,6 +278,12 @@ fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) ->
         q.x >= lo.x && q.x <= hi.x && q.y >= lo.y && q.y <= hi.y && inside_convex(&hull, q)
     };
     let (mut front, mut behind_in, mut behind, mut valid) = (0usize, 0usize, 0usize, 0usize);
+    // Cells of a body under the plane's rim (see `support_layer_min_fraction`).
+    let mut under_rim = 0usize;
+    let (rim_lo, rim_hi) = (
+        cfg.support_layer_min_depth_mm,
+        cfg.support_layer_max_depth_mm,
+    );
     // Every third cell: the tests compare fractions, and the frame's cells are many.
     const SUB: usize = 3;
     for (i, &z) in g.z.iter().enumerate().step_by(SUB) {
@@ -282,6 +294,13 @@ fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) ->
         let d = reg.dist(&g.p[i]);
         if d < -cfg.support_side_margin_mm {
             behind += 1;
+        }
+        if -d >= rim_lo && -d <= rim_hi {
+            let q = to2(&v3(&g.p[i]));
+            let reach = cfg.support_side_margin_mm + plane_tol(cfg, z as f64);
+            if boundary_distance(&hull, &q) <= reach {
+                under_rim += 1;
+            }
         }
         if d.abs() <= cfg.support_side_margin_mm || d.abs() > cfg.support_window_mm {
             continue;
@@ -301,7 +320,21 @@ fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) ->
         // A box top (a carton layer) has the boxes' bodies under it; a table has legs at most.
         (SUB * front) as f64 >= cfg.support_min_front_fraction * cells.len() as f64
             && front > behind_in,
+        (SUB * under_rim) as f64 / cells.len().max(1) as f64,
     )
+}
+
+/// Distance from `p` to the boundary of the polygon `poly` (its edges), in its units.
+fn boundary_distance(poly: &[Point2<f64>], p: &Point2<f64>) -> f64 {
+    let mut best = f64::INFINITY;
+    for k in 0..poly.len() {
+        let a = poly[k];
+        let b = poly[(k + 1) % poly.len()];
+        let ab = b - a;
+        let t = ((p - a).dot(&ab) / ab.norm_squared().max(1e-12)).clamp(0.0, 1.0);
+        best = best.min((p - (a + ab * t)).norm());
+    }
+    best
 }
 
 /// Dominant planes by RANSAC over all cells (deterministic), with their support tests: finds
@@ -426,7 +459,7 @@ pub(crate) fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, 
     found
         .into_par_iter()
         .map(|(reg, inl)| {
-            let (strong, standing) = support_tests(g, &reg, &inl, cfg);
+            let (strong, standing, _) = support_tests(g, &reg, &inl, cfg);
             (reg, strong, standing)
         })
         .collect()
@@ -1419,4 +1452,42 @@ pub(crate) fn score_faces(
         bx,
         normal: normals[largest],
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn boundary_distance_matches_a_densely_sampled_outline() {
+        // A convex pentagon, mm; the outline sampled every 0.01 mm is the brute-force answer.
+        let poly = [
+            Point2::new(0.0, 0.0),
+            Point2::new(300.0, 0.0),
+            Point2::new(380.0, 150.0),
+            Point2::new(200.0, 260.0),
+            Point2::new(-40.0, 120.0),
+        ];
+        let mut outline = Vec::new();
+        for k in 0..poly.len() {
+            let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+            let steps = ((b - a).norm() / 0.01) as usize;
+            outline.extend((0..=steps).map(|s| a + (b - a) * (s as f64 / steps as f64)));
+        }
+        for (x, y) in [
+            (150.0, 100.0),
+            (-100.0, -50.0),
+            (400.0, 300.0),
+            (299.0, 1.0),
+            (0.0, 0.0),
+        ] {
+            let p = Point2::new(x, y);
+            let brute = outline
+                .iter()
+                .map(|q| (q - p).norm())
+                .fold(f64::INFINITY, f64::min);
+            let d = boundary_distance(&poly, &p);
+            assert!((d - brute).abs() < 0.02, "({x}, {y}): {d} against {brute}");
+        }
+    }
 }
