@@ -284,6 +284,9 @@ fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) ->
         cfg.support_layer_min_depth_mm,
         cfg.support_layer_max_depth_mm,
     );
+    // Only large candidates are held to the layer test: the rim is not measured on others.
+    let rim_wanted =
+        cfg.support_layer_min_fraction > 0.0 && reg.area_mm2 >= cfg.support_min_area_mm2;
     // Every third cell: the tests compare fractions, and the frame's cells are many.
     const SUB: usize = 3;
     for (i, &z) in g.z.iter().enumerate().step_by(SUB) {
@@ -295,7 +298,7 @@ fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) ->
         if d < -cfg.support_side_margin_mm {
             behind += 1;
         }
-        if -d >= rim_lo && -d <= rim_hi {
+        if rim_wanted && -d >= rim_lo && -d <= rim_hi {
             let q = to2(&v3(&g.p[i]));
             let reach = cfg.support_side_margin_mm + plane_tol(cfg, z as f64);
             if boundary_distance(&hull, &q) <= reach {
