@@ -520,7 +520,7 @@ pub(crate) fn is_face(r: &Region, cfg: &DetectConfig) -> bool {
     r.n >= cfg.min_face_cells as usize
         && r.inlier_frac >= cfg.min_plane_inlier_frac
         && r.normal_spread_deg <= cfg.max_normal_spread_deg
-        && r.bend_deg <= cfg.max_bend_deg
+        && r.bend_deg <= super::regions::bend_limit(cfg, r.centroid.z)
 }
 
 /// Robust range (low and high quantiles) of values.
@@ -688,7 +688,7 @@ pub(crate) fn group_candidates(
         let reg = &regions[r];
         // Smoothly bent: fits a plane loosely, normals not noisy, but its halves disagree.
         reg.n >= cfg.min_face_cells as usize
-            && reg.bend_deg > cfg.max_bend_deg
+            && reg.bend_deg > super::regions::bend_limit(cfg, reg.centroid.z)
             && reg.inlier_frac >= cfg.min_plane_inlier_frac
             && reg.normal_spread_deg <= cfg.max_normal_spread_deg
     };

@@ -234,6 +234,16 @@ pub struct DetectConfig {
     /// within this angle, degrees: spheres and cylinders bend, planes do not. Default 10
     /// (8 before the flap-seam check and per-face extents; 10 is better on both seeds).
     pub max_bend_deg: f64,
+    /// Beyond this depth, `max_bend_deg` grows with the plane tolerance (`plane_tol_abs_mm`,
+    /// `plane_tol_quad_mm`): far faces are noisy enough that their halves' plane fits part by
+    /// more than a near face's. A dark carton at 2.6 m seen by the RealSense model bent by
+    /// 11–17° and was no face (at 2.6 m the limit is now 16°, with the tolerances' defaults).
+    /// The curved-surface veto uses the same limit. 0 keeps `max_bend_deg` at every depth.
+    /// Default 2000 (bench, 48 views, seeds 2026 / 7 / 11 / 3 / 5 / 13, mean AP@0.5 of the 15
+    /// rows against 0: 0.6802 → 0.6811, pallets 0.6743 → 0.6787 with no row lower on any
+    /// seed; 1500 gave 0.6813 but shelves −0.011 on seeds 7 and 13; a flat 14° limit at every
+    /// depth lost 0.013 on the tables with 32 distractors, letting round ones in).
+    pub bend_ref_depth_mm: f64,
     /// A lone face touching a curved surface (bent beyond `max_bend_deg`) is part of a round
     /// thing (a cylinder's cap) and dropped, but only when that surface has at least this
     /// fraction of the face's cells: the thin strip of a box's side face seen at a grazing angle
@@ -851,6 +861,7 @@ impl Default for DetectConfig {
             min_plane_inlier_frac: 0.8,
             max_normal_spread_deg: 25.0,
             max_bend_deg: 10.0,
+            bend_ref_depth_mm: 2000.0,
             curved_veto_min_ratio: 0.25,
             curved_veto_min_bend_deg: 15.0,
             support_min_area_mm2: 250_000.0,

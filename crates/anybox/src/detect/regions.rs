@@ -57,6 +57,15 @@ pub(crate) fn plane_tol(cfg: &DetectConfig, z_mm: f64) -> f64 {
     cfg.plane_tol_abs_mm + cfg.plane_tol_quad_mm * zm * zm
 }
 
+/// The largest bend of a face at depth `z_mm`, degrees: `max_bend_deg`, grown beyond
+/// `bend_ref_depth_mm` as the plane tolerance grows (see [`DetectConfig::bend_ref_depth_mm`]).
+pub(crate) fn bend_limit(cfg: &DetectConfig, z_mm: f64) -> f64 {
+    if cfg.bend_ref_depth_mm <= 0.0 {
+        return cfg.max_bend_deg;
+    }
+    cfg.max_bend_deg * (plane_tol(cfg, z_mm) / plane_tol(cfg, cfg.bend_ref_depth_mm)).max(1.0)
+}
+
 /// Union-find over cell indices, by size with path halving.
 pub(crate) struct Dsu {
     parent: Vec<u32>,
@@ -721,6 +730,26 @@ pub(crate) fn compact_labels(
 mod tests {
     use super::*;
     use anybox_geom::Intrinsics;
+
+    #[test]
+    fn the_bend_limit_grows_with_the_plane_tolerance_past_its_depth() {
+        let cfg = DetectConfig::default();
+        // Closed form: 4 + 6 z² mm of tolerance (z in m), 10° up to 2 m.
+        let tol = |z_m: f64| 4.0 + 6.0 * z_m * z_m;
+        assert_eq!((cfg.plane_tol_abs_mm, cfg.plane_tol_quad_mm), (4.0, 6.0));
+        assert_eq!(cfg.bend_ref_depth_mm, 2000.0);
+        for z_mm in [500.0, 1000.0, 2000.0] {
+            assert!((bend_limit(&cfg, z_mm) - cfg.max_bend_deg).abs() < 1e-9);
+        }
+        let want = cfg.max_bend_deg * tol(2.6) / tol(2.0);
+        assert!((bend_limit(&cfg, 2600.0) - want).abs() < 1e-9);
+        assert!((15.5..16.5).contains(&want), "{want}");
+        let flat = DetectConfig {
+            bend_ref_depth_mm: 0.0,
+            ..DetectConfig::default()
+        };
+        assert_eq!(bend_limit(&flat, 2600.0), cfg.max_bend_deg);
+    }
 
     const W: usize = 60;
     const H: usize = 40;

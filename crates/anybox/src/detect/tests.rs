@@ -1472,6 +1472,33 @@ fn a_layer_of_cartons_under_others_is_no_support() {
 }
 
 #[test]
+fn a_far_dark_carton_is_a_box_though_its_faces_bend() {
+    // Generated pallet scene (seed 2026, scene 40, `SEED=2026 ONLY=pallet VIEW=40` with
+    // `detect_dev 48`): a dark 292 × 386 × 292 mm carton on the floor beside the pallet, 2.6 m
+    // from the RealSense-like camera, wholly visible. Depth noise there makes its faces'
+    // halves fit planes 11–17° apart, past `max_bend_deg`, so none of them was a face and the
+    // carton had no detection at all.
+    let v = pallet_view(2026, 48, 40);
+    let gt = box_of_size(&v, [292.0, 292.0, 386.0]);
+    assert!(gt.visib_fract > 0.95, "the generator's scene changed");
+    let iou = |cfg: &DetectConfig| {
+        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
+        best_iou_among(&dets, &gt.mask_visib)
+    };
+    let found = iou(&DetectConfig::default());
+    assert!(found > 0.9, "best mask IoU {found:.3}");
+    // Premise: with one bend limit at every depth the carton is not detected.
+    let flat = iou(&DetectConfig {
+        bend_ref_depth_mm: 0.0,
+        ..DetectConfig::default()
+    });
+    assert!(
+        flat < 0.1,
+        "best mask IoU with a flat bend limit: {flat:.3}"
+    );
+}
+
+#[test]
 fn a_box_standing_on_a_box_of_another_colour_is_not_one_carton() {
     // Generated table scene (seed 2026, scene 23): a dark 140 × 206 × 334 mm carton stands on
     // a light grey 191 × 214 × 196 mm one, their front faces coplanar. The line between them
