@@ -921,6 +921,12 @@ fn best_iou_among(dets: &[Detection], gt: &Mask) -> f64 {
     dets.iter().map(|d| d.mask.iou(gt)).fold(0.0, f64::max)
 }
 
+/// Best mask IoU with `gt` among the detections of `v` under `cfg` (alternatives included).
+fn best_iou_detected(v: &anybox_synth::SynthView, gt: &Mask, cfg: &DetectConfig) -> f64 {
+    let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
+    best_iou_among(&dets, gt)
+}
+
 /// The visible masks of the boxes of `v` whose extents, sorted, are `sorted_mm` (within 1 mm)
 /// and whose visible fraction is at least `min_visib`: the cartons of one product.
 fn visible_masks_of_size(
@@ -1386,10 +1392,7 @@ fn a_taped_top_whose_half_is_in_two_pieces_is_bridged_whole() {
     // carton's detection lost most of its top.
     let v = pallet_view(2026, 48, 41);
     let gt = box_of_size(&v, [217.0, 271.0, 474.0]);
-    let iou = |cfg: &DetectConfig| {
-        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
-        best_iou_among(&dets, &gt.mask_visib)
-    };
+    let iou = |cfg: &DetectConfig| best_iou_detected(&v, &gt.mask_visib, cfg);
     let whole = iou(&DetectConfig::default());
     assert!(whole > 0.9, "best mask IoU {whole:.3}");
     // Premise: with the former overlap the top is lost.
@@ -1416,10 +1419,7 @@ fn a_top_seen_along_one_edge_only_stays_with_its_carton() {
         (size_mm[2] - 572.0).abs() < 2.0 && gt.visib_fract > 0.6,
         "the generator's scene changed"
     );
-    let iou = |cfg: &DetectConfig| {
-        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
-        best_iou_among(&dets, &gt.mask_visib)
-    };
+    let iou = |cfg: &DetectConfig| best_iou_detected(&v, &gt.mask_visib, cfg);
     let found = iou(&DetectConfig::default());
     assert!(found > 0.9, "best mask IoU {found:.3}");
     // Premise: without the alternative the carton's best mask takes in its neighbour.
@@ -1481,10 +1481,7 @@ fn a_far_dark_carton_is_a_box_though_its_faces_bend() {
     let v = pallet_view(2026, 48, 40);
     let gt = box_of_size(&v, [292.0, 292.0, 386.0]);
     assert!(gt.visib_fract > 0.95, "the generator's scene changed");
-    let iou = |cfg: &DetectConfig| {
-        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
-        best_iou_among(&dets, &gt.mask_visib)
-    };
+    let iou = |cfg: &DetectConfig| best_iou_detected(&v, &gt.mask_visib, cfg);
     let found = iou(&DetectConfig::default());
     assert!(found > 0.9, "best mask IoU {found:.3}");
     // Premise: with one bend limit at every depth the carton is not detected.
