@@ -35,6 +35,7 @@ use super::regions::{compact_labels, plane_tol, Region, NONE};
 use super::DetectConfig;
 
 /// What pairing needs of one planar region.
+#[derive(Clone)]
 struct Half {
     /// Region label.
     label: usize,
@@ -72,21 +73,22 @@ pub(crate) fn pair_halves(
             taped[l as usize] |= strip[i];
         }
     }
-    // A patch with a band of tape along its own middle is a whole top (tape runs along a
-    // carton's flap seam), not a half whose flap seam is the line beside it.
-    if cfg.halves_tape_band_contrast > 0.0 {
-        for (l, r) in regions.iter().enumerate() {
-            if !taped[l] && is_face(r, cfg) {
-                taped[l] = rect_of(g, l, r, &cells[l], cfg)
-                    .is_some_and(|h| tape_along_middle(g, &h, &cells[l], cfg));
+    // Each untaped face's rectangle, once for the band test and both passes. A patch with a
+    // band of tape along its own middle is a whole top (tape runs along a carton's flap
+    // seam), not a half whose flap seam is the line beside it.
+    let rects = regions
+        .iter()
+        .enumerate()
+        .map(|(l, r)| {
+            if taped[l] || !is_face(r, cfg) {
+                return None;
             }
-        }
-    }
-    let patches = Patches {
-        regions,
-        cells,
-        taped,
-    };
+            rect_of(g, l, r, &cells[l], cfg).filter(|h| {
+                cfg.halves_tape_band_contrast <= 0.0 || !tape_along_middle(g, h, &cells[l], cfg)
+            })
+        })
+        .collect();
+    let patches = Patches { rects };
     let mut parent: Vec<usize> = (0..n).collect();
     let mut joined = patches.pair_chains(g, &mut parent, cfg);
     if cfg.halves_isolated_pairs {
@@ -99,23 +101,23 @@ pub(crate) fn pair_halves(
     compact_labels(labels, n, |l| parent[l])
 }
 
-/// The colour-level regions both passes pair: plane fits, cells, and whether `bridge_tape`
-/// moved cells into them.
-struct Patches<'a> {
-    regions: &'a [Region],
-    cells: Vec<Vec<usize>>,
-    taped: Vec<bool>,
+/// The colour-level regions both passes pair: each label's rectangle, `None` where it is no
+/// face, `bridge_tape` moved cells into it, it has tape along its middle, or it is degenerate.
+struct Patches {
+    rects: Vec<Option<Half>>,
 }
 
-impl Patches<'_> {
+impl Patches {
     /// The first pass: elongated halves side by side across their long sides, in chains paired
     /// off from a clean end (see the module doc). Sets `parent` of each pair's second label to
     /// its first; returns whether anything was paired.
     fn pair_chains(&self, g: &Grid, parent: &mut [usize], cfg: &DetectConfig) -> bool {
-        let (regions, cells, taped) = (self.regions, &self.cells, &self.taped);
-        let halves: Vec<Half> = (0..regions.len())
-            .filter(|&l| !taped[l] && is_face(&regions[l], cfg))
-            .filter_map(|l| half_of(g, l, &regions[l], &cells[l], cfg))
+        let halves: Vec<Half> = self
+            .rects
+            .iter()
+            .flatten()
+            .filter(|h| elongated(h, cfg))
+            .cloned()
             .collect();
         if halves.len() < 2 {
             return false;
@@ -219,8 +221,7 @@ impl Patches<'_> {
     /// neighbour, with the surface ending beyond the pair's six other sides. Sets `parent` as
     /// [`Patches::pair_chains`] does; returns whether anything was paired.
     fn pair_isolated(&self, g: &Grid, parent: &mut [usize], cfg: &DetectConfig) -> bool {
-        let (regions, cells, taped) = (self.regions, &self.cells, &self.taped);
-        let n = regions.len();
+        let n = self.rects.len();
         let mut used = vec![false; n];
         for l in 0..n {
             if parent[l] != l {
@@ -229,8 +230,8 @@ impl Patches<'_> {
             }
         }
         let rects: Vec<Half> = (0..n)
-            .filter(|&l| !used[l] && !taped[l] && is_face(&regions[l], cfg))
-            .filter_map(|l| rect_of(g, l, &regions[l], &cells[l], cfg))
+            .filter(|&l| !used[l])
+            .filter_map(|l| self.rects[l].clone())
             .collect();
         // Every touching pair, with the unit in-plane direction from the first to the second.
         let mut pairs: Vec<(usize, usize, Vector3<f64>)> = Vec::new();
@@ -349,15 +350,9 @@ fn seam_frame(h: &Half, towards: &Vector3<f64>) -> Half {
     }
 }
 
-/// A planar region as a possible half; `None` when it is not elongated enough.
-fn half_of(
-    g: &Grid,
-    label: usize,
-    r: &Region,
-    cells: &[usize],
-    cfg: &DetectConfig,
-) -> Option<Half> {
-    rect_of(g, label, r, cells, cfg).filter(|h| h.len_mm >= cfg.halves_min_aspect * h.width_mm)
+/// Whether a region's rectangle is elongated enough to be a half.
+fn elongated(h: &Half, cfg: &DetectConfig) -> bool {
+    h.len_mm >= cfg.halves_min_aspect * h.width_mm
 }
 
 /// A planar region as a rectangle along its in-plane principal axes (`long` the longer side);
