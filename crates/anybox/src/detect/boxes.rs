@@ -614,6 +614,7 @@ pub(crate) fn group_candidates(
     regions: &[Region],
     on_support: &[bool],
     corner_alternatives: bool,
+    coplanar_alternatives: bool,
     cfg: &DetectConfig,
 ) -> Vec<Raw> {
     let n = regions.len();
@@ -766,9 +767,137 @@ pub(crate) fn group_candidates(
         .map(|(&k, &c)| (k, c))
         .collect();
     pairs.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    // A lone face `b` refused by group `ga` (holding `a`, with which `b` is compatible) only
+    // because one other face `x` of the group is parallel to it: when `x` and `b` touch and are
+    // coplanar, they are one face split by colour (a tape strip along a carton's edge), and
+    // the group with `b` joined to `x` is an alternative.
+    let cos_par = cfg.perpendicular_tol_deg.to_radians().cos();
+    let coplanar = |x: usize, b: usize| {
+        let (rx, rb) = (&regions[x], &regions[b]);
+        let tol = plane_tol(cfg, rb.centroid.z);
+        rx.normal.dot(&rb.normal) >= cos_par
+            && (rb.centroid - rx.centroid).dot(&rx.normal).abs() <= tol
+            && (rx.centroid - rb.centroid).dot(&rb.normal).abs() <= tol
+    };
+    // Extent of several regions' cells along a direction (robust).
+    let extent_of = |rs: &[usize], e: &Vector3<f64>| -> f64 {
+        let mut vals: Vec<f64> = rs
+            .iter()
+            .flat_map(|&r| cells[r].iter())
+            .map(|&i| v3(&g.p[i as usize]).dot(e))
+            .collect();
+        let (lo, hi) = robust_range(&mut vals, cfg.extent_quantile);
+        hi - lo
+    };
+    // Region `r` is a strip of face region `f`: at most half its size, and no wider than a
+    // tape along one of eight directions in `f`'s plane (22.5° apart).
+    let strip = |r: usize, f: usize| {
+        let rf = &regions[f];
+        let u = rf
+            .normal
+            .cross(&Vector3::x())
+            .try_normalize(1e-6)
+            .unwrap_or_else(|| rf.normal.cross(&Vector3::y()).normalize());
+        let v = rf.normal.cross(&u);
+        2 * regions[r].n <= rf.n
+            && (0..8).any(|k| {
+                let t = k as f64 * std::f64::consts::PI / 8.0;
+                extent_along(r, &(u * t.cos() + v * t.sin())) <= cfg.tape_max_width_mm
+            })
+    };
+    // The largest region of a face of several (whose normal is the face's).
+    let largest = |f: &[usize]| f.iter().copied().max_by_key(|&r| regions[r].n).unwrap_or(0);
+    let coplanar_join = |ga: &[usize], gb: &[usize], a: usize, b: usize| {
+        let (ga, b) = if gb.len() == 1 && gb[0] == b {
+            (ga, b)
+        } else if ga.len() == 1 && ga[0] == a {
+            (gb, a)
+        } else {
+            return None;
+        };
+        let mut parallel = ga.iter().copied().filter(|&x| !perp(x, b));
+        // The pair is compatible, so `x` is not the group's face that `b` touched.
+        let x = parallel.next()?;
+        if parallel.next().is_some() {
+            return None;
+        }
+        let touch = contact.contains_key(&(x.min(b) as u32, x.max(b) as u32));
+        let others_fit = ga.iter().filter(|&&y| y != x).all(|&y| {
+            perp(y, b)
+                && (!contact.contains_key(&(y.min(b) as u32, y.max(b) as u32)) || compatible(y, b))
+        });
+        if !(coplanar(x, b) && touch && others_fit) {
+            return None;
+        }
+        // Only a strip joins a face: two faces of their own (two flush cartons' tops) stay
+        // apart.
+        let (small, big) = if regions[x].n <= regions[b].n {
+            (x, b)
+        } else {
+            (b, x)
+        };
+        if !strip(small, big) {
+            return None;
+        }
+        let mut faces: Vec<Vec<usize>> = ga
+            .iter()
+            .map(|&y| if y == x { vec![x, b] } else { vec![y] })
+            .collect();
+        // Every two faces still share an edge of about the same length on both: the join
+        // must not run past the box (two flush cartons' fronts).
+        let edges_fit = |faces: &[Vec<usize>]| {
+            faces.iter().enumerate().all(|(i, f)| {
+                faces[i + 1..].iter().all(|g| {
+                    let e = regions[largest(f)]
+                        .normal
+                        .cross(&regions[largest(g)].normal);
+                    let Some(e) = e.try_normalize(1e-9) else {
+                        return false;
+                    };
+                    let (lf, lg) = (extent_of(f, &e), extent_of(g, &e));
+                    lf.min(lg) >= cfg.edge_length_ratio * lf.max(lg)
+                })
+            })
+        };
+        if !edges_fit(&faces) {
+            return None;
+        }
+        // Each face also takes in the other regions coplanar with it that it touches (the rest
+        // of a top that print or tape cut in pieces), while the edges still fit.
+        let taken: Vec<usize> = faces.iter().flatten().copied().collect();
+        for fi in 0..faces.len() {
+            let f0 = largest(&faces[fi]);
+            for (&(p, q), &c) in &contact {
+                let (p, q) = (p as usize, q as usize);
+                let face = &faces[fi];
+                let r = if face.contains(&p) {
+                    q
+                } else if face.contains(&q) {
+                    p
+                } else {
+                    continue;
+                };
+                if c >= cfg.min_contact_cells
+                    && !taken.contains(&r)
+                    && !face.contains(&r)
+                    && coplanar(f0, r)
+                    && strip(r, f0)
+                {
+                    faces[fi].push(r);
+                    if !edges_fit(&faces) {
+                        faces[fi].pop();
+                    }
+                }
+            }
+            faces[fi].sort_unstable();
+        }
+        faces.sort_unstable();
+        Some(faces)
+    };
     let mut group_of: Vec<usize> = (0..n).collect();
     let mut members: Vec<Vec<usize>> = (0..n).map(|i| vec![i]).collect();
-    let mut extra: Vec<Vec<usize>> = Vec::new();
+    // Alternative groups, face by face (a face may be several coplanar regions).
+    let mut extra: Vec<Vec<Vec<usize>>> = Vec::new();
     for ((a, b), _) in pairs {
         let (a, b) = (a as usize, b as usize);
         let (ga, gb) = (group_of[a], group_of[b]);
@@ -795,8 +924,16 @@ pub(crate) fn group_candidates(
                 let mut union: Vec<usize> =
                     members[ga].iter().chain(&members[gb]).copied().collect();
                 union.sort_unstable();
+                let union: Vec<Vec<usize>> = union.into_iter().map(|f| vec![f]).collect();
                 if !extra.contains(&union) {
                     extra.push(union);
+                }
+            }
+            if coplanar_alternatives && compatible(a, b) {
+                if let Some(faces) = coplanar_join(&members[ga], &members[gb], a, b) {
+                    if !extra.contains(&faces) {
+                        extra.push(faces);
+                    }
                 }
             }
             continue;
@@ -807,7 +944,7 @@ pub(crate) fn group_candidates(
         }
         members[ga].extend(moved);
     }
-    let groups: Vec<&Vec<usize>> = members
+    let groups: Vec<Vec<Vec<usize>>> = members
         .iter()
         .enumerate()
         .filter(|&(gi, mem)| {
@@ -816,13 +953,17 @@ pub(crate) fn group_candidates(
                 && mem.iter().all(|&f| face[f])
                 && !(mem.len() == 1 && touches_curved[mem[0]])
         })
-        .map(|(_, mem)| mem)
-        .chain(extra.iter().filter(|mem| mem.iter().all(|&f| face[f])))
+        .map(|(_, mem)| mem.iter().map(|&f| vec![f]).collect())
+        .chain(
+            extra
+                .into_iter()
+                .filter(|mem| mem.iter().flatten().all(|&f| face[f])),
+        )
         .collect();
     // Groups are scored independently: in parallel (the order is kept).
     let mut out: Vec<Raw> = groups
         .into_par_iter()
-        .filter_map(|mem| score_group(g, labels, regions, on_support, &cells, mem, cfg))
+        .filter_map(|mem| score_group(g, labels, regions, on_support, &cells, &mem, cfg))
         .collect();
     out.sort_by(|a, b| b.score.total_cmp(&a.score));
     out
@@ -1111,12 +1252,27 @@ fn score_group(
     regions: &[Region],
     on_support: &[bool],
     cells: &[Vec<u32>],
-    mem: &[usize],
+    faces_of: &[Vec<usize>],
     cfg: &DetectConfig,
 ) -> Option<Raw> {
+    let mem: Vec<usize> = faces_of.iter().flatten().copied().collect();
     let all: Vec<u32> = mem.iter().flat_map(|&f| cells[f].iter().copied()).collect();
-    let faces: Vec<&[u32]> = mem.iter().map(|&f| cells[f].as_slice()).collect();
-    let normals: Vec<Vector3<f64>> = mem.iter().map(|&f| regions[f].normal).collect();
+    let joined: Vec<Vec<u32>>;
+    let faces: Vec<&[u32]> = if faces_of.iter().all(|f| f.len() == 1) {
+        mem.iter().map(|&f| cells[f].as_slice()).collect()
+    } else {
+        joined = faces_of
+            .iter()
+            .map(|f| f.iter().flat_map(|&r| cells[r].iter().copied()).collect())
+            .collect();
+        joined.iter().map(Vec::as_slice).collect()
+    };
+    // A face of several regions takes the normal of its largest.
+    let normals: Vec<Vector3<f64>> = faces_of
+        .iter()
+        .filter_map(|f| f.iter().max_by_key(|&&r| regions[r].n))
+        .map(|&r| regions[r].normal)
+        .collect();
     // Plane fit.
     let fit = mem
         .iter()
