@@ -1416,20 +1416,33 @@ fn a_strip_of_a_face_does_not_keep_the_face_from_its_carton() {
     // with the strip first, the front was refused as parallel to it, and the carton came out
     // as its top and the strip (best mask IoU 0.58).
     let v = table_d0_view_of(7, 48, 7);
-    let gt = box_of_size(&v, [76.0, 198.0, 300.0]);
-    assert!(gt.visib_fract > 0.95, "the generator's scene changed");
-    let iou = |cfg: &DetectConfig| best_iou_detected(&v, &gt.mask_visib, cfg);
-    let whole = iou(&DetectConfig::default());
-    assert!(whole > 0.9, "best mask IoU {whole:.3}");
     // Premise: without the alternative the front is lost.
-    let cut = iou(&DetectConfig {
-        coplanar_alternatives: false,
-        ..DetectConfig::default()
-    });
+    let (whole, cut) = best_ious_with_and_without(
+        &v,
+        [76.0, 198.0, 300.0],
+        &DetectConfig {
+            coplanar_alternatives: false,
+            ..DetectConfig::default()
+        },
+    );
+    assert!(whole > 0.9, "best mask IoU {whole:.3}");
     assert!(
         cut < 0.7,
         "best mask IoU without coplanar_alternatives: {cut:.3}"
     );
+}
+
+/// The best mask IoU of any detection with the wholly visible box of `v` whose sorted extents
+/// are `sorted_mm`, under the default configuration and under `off` (a rule turned off).
+fn best_ious_with_and_without(
+    v: &anybox_synth::SynthView,
+    sorted_mm: [f64; 3],
+    off: &DetectConfig,
+) -> (f64, f64) {
+    let gt = box_of_size(v, sorted_mm);
+    assert!(gt.visib_fract > 0.95, "the generator's scene changed");
+    let iou = |cfg: &DetectConfig| best_iou_detected(v, &gt.mask_visib, cfg);
+    (iou(&DetectConfig::default()), iou(off))
 }
 
 #[test]
@@ -1508,16 +1521,16 @@ fn a_far_dark_carton_is_a_box_though_its_faces_bend() {
     // halves fit planes 11–17° apart, past `max_bend_deg`, so none of them was a face and the
     // carton had no detection at all.
     let v = pallet_view(2026, 48, 40);
-    let gt = box_of_size(&v, [292.0, 292.0, 386.0]);
-    assert!(gt.visib_fract > 0.95, "the generator's scene changed");
-    let iou = |cfg: &DetectConfig| best_iou_detected(&v, &gt.mask_visib, cfg);
-    let found = iou(&DetectConfig::default());
-    assert!(found > 0.9, "best mask IoU {found:.3}");
     // Premise: with one bend limit at every depth the carton is not detected.
-    let flat = iou(&DetectConfig {
-        bend_ref_depth_mm: 0.0,
-        ..DetectConfig::default()
-    });
+    let (found, flat) = best_ious_with_and_without(
+        &v,
+        [292.0, 292.0, 386.0],
+        &DetectConfig {
+            bend_ref_depth_mm: 0.0,
+            ..DetectConfig::default()
+        },
+    );
+    assert!(found > 0.9, "best mask IoU {found:.3}");
     assert!(
         flat < 0.1,
         "best mask IoU with a flat bend limit: {flat:.3}"
