@@ -16,7 +16,11 @@
 //! other, make one object that fits no cuboid); the parts are then tried again. One that passes
 //! is still cut where its plain colour changes so (`blob_colour_cut_delta`: two boxes of
 //! different colours stacked or end to end, sides flush); flush cartons of one colour that fit
-//! one cuboid are split in `select` by their seams, as surfaces are.
+//! one cuboid are split in `select` by their seams, as surfaces are. A small box's faces
+//! bend a little past `max_bend_deg` (its edges' smoothed normals cover much of each face): an
+//! object of three faces that bends no more than `blob_three_face_max_bend_deg`, and that no
+//! colour cut or split parts, is still scored, and kept when it scores at least
+//! `blob_three_face_min_score`.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -466,6 +470,13 @@ fn object_candidates(
             }
             (lo, hi)
         };
+        // Three faces that fit, bending past `max_bend_deg` but no more than a small box's
+        // faces do.
+        let bent_box = fr.axes.len() == 3
+            && fr.fit >= cfg.blob_min_fit
+            && fr.agree >= cfg.blob_min_agree
+            && fr.bend_deg > cfg.max_bend_deg
+            && fr.bend_deg <= cfg.blob_three_face_max_bend_deg;
         let parts = match step {
             Some(c) => Some(by_plane(c, "step")),
             None => {
@@ -501,18 +512,22 @@ fn object_candidates(
                         let split = (depth < cfg.blob_max_cuts && small)
                             .then(|| two_colours(g, &blob, cfg))
                             .flatten();
-                        let Some((lo, hi)) = split else {
-                            continue;
-                        };
-                        if dbg && blob.len() > 200 {
-                            log::debug!(
-                                "blob {b}.{pi} n {} two colours: {} + {}",
-                                blob.len(),
-                                lo.len(),
-                                hi.len()
-                            );
+                        match split {
+                            Some((lo, hi)) => {
+                                if dbg && blob.len() > 200 {
+                                    log::debug!(
+                                        "blob {b}.{pi} n {} two colours: {} + {}",
+                                        blob.len(),
+                                        lo.len(),
+                                        hi.len()
+                                    );
+                                }
+                                Some((lo, hi))
+                            }
+                            // Bent only a little, three faces and of one colour: scored below.
+                            None if bent_box => None,
+                            None => continue,
                         }
-                        Some((lo, hi))
                     }
                     None => None,
                 }
@@ -536,7 +551,9 @@ fn object_candidates(
         if let Some(raw) = score_faces(
             g, blob, &face_refs, &fr.axes, fr.fit, &member, &unknown, cfg,
         ) {
-            out.push(raw);
+            if !bent_box || raw.score >= cfg.blob_three_face_min_score {
+                out.push(raw);
+            }
         }
     }
     out

@@ -802,6 +802,22 @@ pub struct DetectConfig {
     /// over a few cells at every fold, so small boxes agree less). Default 0.5: against 0.6,
     /// bench AP@0.5 +0.03 to +0.06 on seed 11, within 0.005 on seeds 7 and 2026.
     pub blob_min_agree: f64,
+    /// An object of three faces that fits (`blob_min_fit`, `blob_min_agree`) and bends past
+    /// `max_bend_deg` but no more than this, degrees, is not dropped when no colour cut or
+    /// two-colour split parts it: it is scored as a box. A small box's faces are a few cells
+    /// across, and the smoothed normals along their edges tilt towards the next face: a
+    /// 99 × 60 × 58 mm box at 1.06 m (seed 11's 48-view table view 20) bent 10.5° and had no
+    /// detection. Round things seldom show three perpendicular faces. 0 (or anything up to
+    /// `max_bend_deg`) turns this off. Default 13 (bench, 48 views, seeds 2026 / 7 / 11 / 3 /
+    /// 5 / 13, mean AP@0.5 of the 15 rows, with `blob_three_face_min_score` 0.8: 0.6817 →
+    /// 0.6830, tables +0.002 on each row; 15° without trying the colour splits first gave
+    /// 0.6827 with seed 2026's tables −0.002 to −0.004).
+    pub blob_three_face_max_bend_deg: f64,
+    /// ... and kept only when it scores at least this (silhouette IoU and depth consistency):
+    /// two boxes of one colour touching also make a slightly bent object of three faces, and
+    /// fit no cuboid well (one scored 0.56 and took a box's mask from 0.93 to 0.55 in seed
+    /// 2026's table view 23). Default 0.8.
+    pub blob_three_face_min_score: f64,
     /// Alternative readings: up to this many candidates per frame that lost a split decision
     /// (a coarse candidate cut into cartons by a seam, or the colour patches of one kept
     /// whole) are returned as well, flagged [`Detection::alternative`] and scored
@@ -990,6 +1006,8 @@ impl Default for DetectConfig {
             blob_min_face_fraction: 0.05,
             blob_min_fit: 0.85,
             blob_min_agree: 0.5,
+            blob_three_face_max_bend_deg: 13.0,
+            blob_three_face_min_score: 0.8,
             alternatives_max: 2,
             alternative_score_factor: 0.1,
             alternative_min_faces: 2,
