@@ -607,7 +607,9 @@ pub(crate) struct Raw {
 
 /// Groups faces into box candidates and scores them. Returns candidates sorted by score.
 /// With `corner_alternatives` (colour patches: see [`DetectConfig::corner_alternatives`]), a
-/// three-face merge refused only by a corner contact's short shared edge is scored as well.
+/// three-face merge refused only by a corner contact's short shared edge is scored as well;
+/// with `coplanar_alternatives` ([`DetectConfig::coplanar_alternatives`]), so is a group in
+/// which a face refused as parallel to a strip of itself is joined to that strip.
 pub(crate) fn group_candidates(
     g: &Grid,
     labels: &[u32],

@@ -804,8 +804,10 @@ pub struct DetectConfig {
     pub blob_min_agree: f64,
     /// An object of three faces that fits (`blob_min_fit`, `blob_min_agree`) and bends past
     /// `max_bend_deg` but no more than this, degrees, is not dropped when no colour cut or
-    /// two-colour split parts it: it is scored as a box. A small box's faces are a few cells
-    /// across, and the smoothed normals along their edges tilt towards the next face: a
+    /// two-colour split parts it (these are tried on misfits with `blob_colour_cut_misfits`,
+    /// the default; without it such objects are dropped as before): it is scored as a box.
+    /// A small box's faces are a few cells across, and the smoothed normals along their
+    /// edges tilt towards the next face: a
     /// 99 × 60 × 58 mm box at 1.06 m (seed 11's 48-view table view 20) bent 10.5° and had no
     /// detection. Round things seldom show three perpendicular faces. 0 (or anything up to
     /// `max_bend_deg`) turns this off. Default 13 (bench, 48 views, seeds 2026 / 7 / 11 / 3 /
