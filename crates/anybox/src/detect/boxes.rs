@@ -606,19 +606,24 @@ pub(crate) struct Raw {
 }
 
 /// Groups faces into box candidates and scores them. Returns candidates sorted by score.
-/// With `corner_alternatives` (colour patches: see [`DetectConfig::corner_alternatives`]), a
+/// On colour patches (`colour_level`), with [`DetectConfig::corner_alternatives`], a
 /// three-face merge refused only by a corner contact's short shared edge is scored as well;
-/// with `coplanar_alternatives` ([`DetectConfig::coplanar_alternatives`]), so is a group in
-/// which a face refused as parallel to a strip of itself is joined to that strip.
+/// with [`DetectConfig::coplanar_alternatives`], so is a group in which a face refused as
+/// parallel to a strip of itself is joined to that strip; with
+/// [`DetectConfig::strip_alternatives`], so is every group of two or three faces with the
+/// coplanar strips it touches taken in.
 pub(crate) fn group_candidates(
     g: &Grid,
     labels: &[u32],
     regions: &[Region],
     on_support: &[bool],
-    corner_alternatives: bool,
-    coplanar_alternatives: bool,
+    colour_level: bool,
     cfg: &DetectConfig,
 ) -> Vec<Raw> {
+    // The alternatives are for colour patches only (see each flag's documentation).
+    let corner_alternatives = colour_level && cfg.corner_alternatives;
+    let coplanar_alternatives = colour_level && cfg.coplanar_alternatives;
+    let strip_alternatives = colour_level && cfg.strip_alternatives;
     let n = regions.len();
     let face: Vec<bool> = regions.iter().map(|r| is_face(r, cfg)).collect();
     if log::log_enabled!(log::Level::Debug) {
@@ -809,6 +814,57 @@ pub(crate) fn group_candidates(
     };
     // The largest region of a face of several (whose normal is the face's).
     let largest = |f: &[usize]| f.iter().copied().max_by_key(|&r| regions[r].n).unwrap_or(0);
+    // Every two faces still share an edge of about the same length on both: the join
+    // must not run past the box (two flush cartons' fronts).
+    let edges_fit = |faces: &[Vec<usize>]| {
+        faces.iter().enumerate().all(|(i, f)| {
+            faces[i + 1..].iter().all(|g| {
+                let e = regions[largest(f)]
+                    .normal
+                    .cross(&regions[largest(g)].normal);
+                let Some(e) = e.try_normalize(1e-9) else {
+                    return false;
+                };
+                let (lf, lg) = (extent_of(f, &e), extent_of(g, &e));
+                lf.min(lg) >= cfg.edge_length_ratio * lf.max(lg)
+            })
+        })
+    };
+    // Each face also takes in the other regions coplanar with it that it touches (the rest
+    // of a top that print or tape cut in pieces), while the edges still fit. Whether any was.
+    let absorb_strips = |faces: &mut Vec<Vec<usize>>| -> bool {
+        let taken: Vec<usize> = faces.iter().flatten().copied().collect();
+        let mut added = false;
+        for fi in 0..faces.len() {
+            let f0 = largest(&faces[fi]);
+            for (&(p, q), &c) in &contact {
+                let (p, q) = (p as usize, q as usize);
+                let face = &faces[fi];
+                let r = if face.contains(&p) {
+                    q
+                } else if face.contains(&q) {
+                    p
+                } else {
+                    continue;
+                };
+                if c >= cfg.min_contact_cells
+                    && !taken.contains(&r)
+                    && !face.contains(&r)
+                    && coplanar(f0, r)
+                    && strip(r, f0)
+                {
+                    faces[fi].push(r);
+                    if edges_fit(faces) {
+                        added = true;
+                    } else {
+                        faces[fi].pop();
+                    }
+                }
+            }
+            faces[fi].sort_unstable();
+        }
+        added
+    };
     let coplanar_join = |ga: &[usize], gb: &[usize], a: usize, b: usize| {
         let (ga, b) = if gb.len() == 1 && gb[0] == b {
             (ga, b)
@@ -845,54 +901,10 @@ pub(crate) fn group_candidates(
             .iter()
             .map(|&y| if y == x { vec![x, b] } else { vec![y] })
             .collect();
-        // Every two faces still share an edge of about the same length on both: the join
-        // must not run past the box (two flush cartons' fronts).
-        let edges_fit = |faces: &[Vec<usize>]| {
-            faces.iter().enumerate().all(|(i, f)| {
-                faces[i + 1..].iter().all(|g| {
-                    let e = regions[largest(f)]
-                        .normal
-                        .cross(&regions[largest(g)].normal);
-                    let Some(e) = e.try_normalize(1e-9) else {
-                        return false;
-                    };
-                    let (lf, lg) = (extent_of(f, &e), extent_of(g, &e));
-                    lf.min(lg) >= cfg.edge_length_ratio * lf.max(lg)
-                })
-            })
-        };
         if !edges_fit(&faces) {
             return None;
         }
-        // Each face also takes in the other regions coplanar with it that it touches (the rest
-        // of a top that print or tape cut in pieces), while the edges still fit.
-        let taken: Vec<usize> = faces.iter().flatten().copied().collect();
-        for fi in 0..faces.len() {
-            let f0 = largest(&faces[fi]);
-            for (&(p, q), &c) in &contact {
-                let (p, q) = (p as usize, q as usize);
-                let face = &faces[fi];
-                let r = if face.contains(&p) {
-                    q
-                } else if face.contains(&q) {
-                    p
-                } else {
-                    continue;
-                };
-                if c >= cfg.min_contact_cells
-                    && !taken.contains(&r)
-                    && !face.contains(&r)
-                    && coplanar(f0, r)
-                    && strip(r, f0)
-                {
-                    faces[fi].push(r);
-                    if !edges_fit(&faces) {
-                        faces[fi].pop();
-                    }
-                }
-            }
-            faces[fi].sort_unstable();
-        }
+        absorb_strips(&mut faces);
         faces.sort_unstable();
         Some(faces)
     };
@@ -945,6 +957,23 @@ pub(crate) fn group_candidates(
             group_of[x] = ga;
         }
         members[ga].extend(moved);
+    }
+    // Every group of two or three faces also yields one more candidate with the coplanar
+    // strips its faces touch taken in (a tape band or a printed edge left out of a carton's
+    // top or front), when there are any.
+    if strip_alternatives {
+        for (gi, mem) in members.iter().enumerate() {
+            if mem.len() < 2 || group_of[gi] != gi {
+                continue;
+            }
+            let mut faces: Vec<Vec<usize>> = mem.iter().map(|&f| vec![f]).collect();
+            if absorb_strips(&mut faces) {
+                faces.sort_unstable();
+                if !extra.contains(&faces) {
+                    extra.push(faces);
+                }
+            }
+        }
     }
     let groups: Vec<Vec<Vec<usize>>> = members
         .iter()
