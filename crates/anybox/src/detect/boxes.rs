@@ -121,23 +121,28 @@ pub(crate) fn support_mask(
     for &c in &order {
         let (_, reg, strong, standing, rim) = &cands[c];
         let parallel = up.is_none_or(|u| u.dot(&reg.normal).abs() >= cos_up);
-        let above_support = order.iter().any(|&o| {
-            accept[o]
-                && cands[o].1.normal.dot(&reg.normal) >= cos_up
-                && cands[o].1.dist(&[
-                    reg.centroid.x as f32,
-                    reg.centroid.y as f32,
-                    reg.centroid.z as f32,
-                ]) > cfg.support_side_margin_mm
-        });
+        // Asked only where it decides (it scans the accepted candidates).
+        let above_support = || {
+            order.iter().any(|&o| {
+                accept[o]
+                    && cands[o].1.normal.dot(&reg.normal) >= cos_up
+                    && cands[o].1.dist(&[
+                        reg.centroid.x as f32,
+                        reg.centroid.y as f32,
+                        reg.centroid.z as f32,
+                    ]) > cfg.support_side_margin_mm
+            })
+        };
         // A layer of cartons: its tops over a support, the cartons' bodies under its rim.
-        let layer = cfg.support_layer_min_fraction > 0.0
-            && *rim >= cfg.support_layer_min_fraction
-            && above_support;
+        let layer = || {
+            cfg.support_layer_min_fraction > 0.0
+                && *rim >= cfg.support_layer_min_fraction
+                && above_support()
+        };
         accept[c] = if reg.area_mm2 >= cfg.support_min_area_mm2 {
-            *strong || (*standing && parallel && !layer)
+            *strong || (*standing && parallel && !layer())
         } else {
-            *standing && parallel && !above_support
+            *standing && parallel && !above_support()
         };
     }
     if log::log_enabled!(log::Level::Debug) {
@@ -720,15 +725,18 @@ pub(crate) fn group_candidates(
     contact.retain(|&(a, b), _| face[a as usize] && face[b as usize]);
     let sin_perp = cfg.perpendicular_tol_deg.to_radians().sin();
     let perp = |a: usize, b: usize| regions[a].normal.dot(&regions[b].normal).abs() <= sin_perp;
-    // Extent of a face's cells along a direction (robust).
-    let extent_along = |r: usize, e: &Vector3<f64>| -> f64 {
-        let mut vals: Vec<f64> = cells[r]
+    // Extent of a face's cells along a direction (robust); a face may be several regions
+    // (one that colour cut in pieces).
+    let extent_of = |rs: &[usize], e: &Vector3<f64>| -> f64 {
+        let mut vals: Vec<f64> = rs
             .iter()
+            .flat_map(|&r| cells[r].iter())
             .map(|&i| v3(&g.p[i as usize]).dot(e))
             .collect();
         let (lo, hi) = robust_range(&mut vals, cfg.extent_quantile);
         hi - lo
     };
+    let extent_along = |r: usize, e: &Vector3<f64>| extent_of(&[r], e);
     // Convex edge: each face's centroid lies behind the other face's plane.
     let convex = |a: usize, b: usize| -> bool {
         let (ra, rb) = (&regions[a], &regions[b]);
@@ -785,16 +793,6 @@ pub(crate) fn group_candidates(
         rx.normal.dot(&rb.normal) >= cos_par
             && (rb.centroid - rx.centroid).dot(&rx.normal).abs() <= tol
             && (rx.centroid - rb.centroid).dot(&rb.normal).abs() <= tol
-    };
-    // Extent of several regions' cells along a direction (robust).
-    let extent_of = |rs: &[usize], e: &Vector3<f64>| -> f64 {
-        let mut vals: Vec<f64> = rs
-            .iter()
-            .flat_map(|&r| cells[r].iter())
-            .map(|&i| v3(&g.p[i as usize]).dot(e))
-            .collect();
-        let (lo, hi) = robust_range(&mut vals, cfg.extent_quantile);
-        hi - lo
     };
     // Region `r` is a strip of face region `f`: at most half its size, and no wider than a
     // tape along one of eight directions in `f`'s plane (22.5° apart).
