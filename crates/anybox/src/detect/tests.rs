@@ -1205,16 +1205,35 @@ fn a_wall_behind_the_table_is_not_taken_for_the_floor() {
     );
 }
 
+/// Whether `b`'s sizes, sorted, are `sorted_mm` to within 2 mm.
+fn has_size(b: &anybox_synth::SynthBox, sorted_mm: [f64; 3]) -> bool {
+    let mut s = [b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z];
+    s.sort_by(f64::total_cmp);
+    s.iter().zip(sorted_mm).all(|(a, d)| (a - d).abs() < 2.0)
+}
+
 /// The box of `view` whose sizes, sorted, are `sorted_mm` to within 2 mm.
 fn box_of_size(view: &anybox_synth::SynthView, sorted_mm: [f64; 3]) -> &anybox_synth::SynthBox {
     view.boxes
         .iter()
-        .find(|b| {
-            let mut s = [b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z];
-            s.sort_by(f64::total_cmp);
-            s.iter().zip(sorted_mm).all(|(a, d)| (a - d).abs() < 2.0)
-        })
+        .find(|b| has_size(b, sorted_mm))
         .unwrap_or_else(|| panic!("no box of {sorted_mm:?} mm in the scene"))
+}
+
+/// The most visible box of `view` whose sizes, sorted, are `sorted_mm` (several cartons may
+/// have them), which must be wholly visible.
+fn wholly_visible_box_of_size(
+    view: &anybox_synth::SynthView,
+    sorted_mm: [f64; 3],
+) -> &anybox_synth::SynthBox {
+    let gt = view
+        .boxes
+        .iter()
+        .filter(|b| has_size(b, sorted_mm))
+        .max_by(|a, b| a.visib_fract.total_cmp(&b.visib_fract))
+        .unwrap_or_else(|| panic!("no box of {sorted_mm:?} mm in the scene"));
+    assert!(gt.visib_fract > 0.95, "the generator's scene changed");
+    gt
 }
 
 /// The detection of `view` with the best mask IoU with `gt`'s visible mask, and the 3D IoU
@@ -1396,15 +1415,16 @@ fn a_taped_top_whose_half_is_in_two_pieces_is_bridged_whole() {
     // tape by less than 0.7 of its length (0.58 and 0.68), so neither was bridged and the
     // carton's detection lost most of its top.
     let v = pallet_view(2026, 48, 41);
-    let gt = box_of_size(&v, [217.0, 271.0, 474.0]);
-    let iou = |cfg: &DetectConfig| best_iou_detected(&v, &gt.mask_visib, cfg);
-    let whole = iou(&DetectConfig::default());
-    assert!(whole > 0.9, "best mask IoU {whole:.3}");
     // Premise: with the former overlap the top is lost.
-    let cut = iou(&DetectConfig {
-        tape_overlap: 0.7,
-        ..DetectConfig::default()
-    });
+    let (whole, cut) = best_ious_with_and_without(
+        &v,
+        &box_of_size(&v, [217.0, 271.0, 474.0]).mask_visib,
+        &DetectConfig {
+            tape_overlap: 0.7,
+            ..DetectConfig::default()
+        },
+    );
+    assert!(whole > 0.9, "best mask IoU {whole:.3}");
     assert!(cut < 0.75, "best mask IoU with tape_overlap 0.7: {cut:.3}");
 }
 
@@ -1419,7 +1439,7 @@ fn a_strip_of_a_face_does_not_keep_the_face_from_its_carton() {
     // Premise: without the alternative the front is lost.
     let (whole, cut) = best_ious_with_and_without(
         &v,
-        [76.0, 198.0, 300.0],
+        &wholly_visible_box_of_size(&v, [76.0, 198.0, 300.0]).mask_visib,
         &DetectConfig {
             coplanar_alternatives: false,
             ..DetectConfig::default()
@@ -1441,22 +1461,20 @@ fn a_group_takes_in_the_strips_along_its_faces() {
     let v = pallet_view(5, 48, 47);
     // Three wholly visible cartons have that size; this is the ninth box of the view.
     let gt = &v.boxes[9];
-    let mut size_mm = [gt.pose.size_mm.x, gt.pose.size_mm.y, gt.pose.size_mm.z];
-    size_mm.sort_by(f64::total_cmp);
     assert!(
-        (size_mm[0] - 257.0).abs() < 2.0
-            && (size_mm[2] - 336.0).abs() < 2.0
-            && gt.visib_fract > 0.95,
+        has_size(gt, [257.0, 332.0, 336.0]) && gt.visib_fract > 0.95,
         "the generator's scene changed"
     );
-    let iou = |cfg: &DetectConfig| best_iou_detected(&v, &gt.mask_visib, cfg);
-    let whole = iou(&DetectConfig::default());
-    assert!(whole > 0.9, "best mask IoU {whole:.3}");
     // Premise: without the alternative the strips stay out.
-    let short = iou(&DetectConfig {
-        strip_alternatives: false,
-        ..DetectConfig::default()
-    });
+    let (whole, short) = best_ious_with_and_without(
+        &v,
+        &gt.mask_visib,
+        &DetectConfig {
+            strip_alternatives: false,
+            ..DetectConfig::default()
+        },
+    );
+    assert!(whole > 0.9, "best mask IoU {whole:.3}");
     assert!(
         short < 0.82,
         "best mask IoU without strip_alternatives: {short:.3}"
@@ -1473,7 +1491,7 @@ fn a_small_box_whose_faces_bend_a_little_is_found() {
     // Premise: with the three-face allowance off the box is not found.
     let (found, lost) = best_ious_with_and_without(
         &v,
-        [58.0, 60.0, 99.0],
+        &wholly_visible_box_of_size(&v, [58.0, 60.0, 99.0]).mask_visib,
         &DetectConfig {
             blob_three_face_max_bend_deg: 0.0,
             ..DetectConfig::default()
@@ -1486,27 +1504,17 @@ fn a_small_box_whose_faces_bend_a_little_is_found() {
     );
 }
 
-/// The best mask IoU of any detection with the wholly visible box of `v` whose sorted extents
-/// are `sorted_mm` (the most visible, when several cartons have them), under the default
-/// configuration and under `off` (a rule turned off).
+/// The best mask IoU of any detection of `v` with `gt`, under the default configuration and
+/// under `off` (a rule turned off).
 fn best_ious_with_and_without(
     v: &anybox_synth::SynthView,
-    sorted_mm: [f64; 3],
+    gt: &Mask,
     off: &DetectConfig,
 ) -> (f64, f64) {
-    let gt = v
-        .boxes
-        .iter()
-        .filter(|b| {
-            let mut s = [b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z];
-            s.sort_by(f64::total_cmp);
-            s.iter().zip(sorted_mm).all(|(a, d)| (a - d).abs() < 2.0)
-        })
-        .max_by(|a, b| a.visib_fract.total_cmp(&b.visib_fract))
-        .expect("the generator's scene changed: no box of that size");
-    assert!(gt.visib_fract > 0.95, "the generator's scene changed");
-    let iou = |cfg: &DetectConfig| best_iou_detected(v, &gt.mask_visib, cfg);
-    (iou(&DetectConfig::default()), iou(off))
+    (
+        best_iou_detected(v, gt, &DetectConfig::default()),
+        best_iou_detected(v, gt, off),
+    )
 }
 
 #[test]
@@ -1525,14 +1533,16 @@ fn a_top_seen_along_one_edge_only_stays_with_its_carton() {
         (size_mm[2] - 572.0).abs() < 2.0 && gt.visib_fract > 0.6,
         "the generator's scene changed"
     );
-    let iou = |cfg: &DetectConfig| best_iou_detected(&v, &gt.mask_visib, cfg);
-    let found = iou(&DetectConfig::default());
-    assert!(found > 0.9, "best mask IoU {found:.3}");
     // Premise: without the alternative the carton's best mask takes in its neighbour.
-    let merged = iou(&DetectConfig {
-        corner_alternatives: false,
-        ..DetectConfig::default()
-    });
+    let (found, merged) = best_ious_with_and_without(
+        &v,
+        &gt.mask_visib,
+        &DetectConfig {
+            corner_alternatives: false,
+            ..DetectConfig::default()
+        },
+    );
+    assert!(found > 0.9, "best mask IoU {found:.3}");
     assert!(
         merged < 0.8,
         "best mask IoU without corner_alternatives: {merged:.3}"
@@ -1588,7 +1598,7 @@ fn a_far_dark_carton_is_a_box_though_its_faces_bend() {
     // Premise: with one bend limit at every depth the carton is not detected.
     let (found, flat) = best_ious_with_and_without(
         &v,
-        [292.0, 292.0, 386.0],
+        &wholly_visible_box_of_size(&v, [292.0, 292.0, 386.0]).mask_visib,
         &DetectConfig {
             bend_ref_depth_mm: 0.0,
             ..DetectConfig::default()
