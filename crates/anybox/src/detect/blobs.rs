@@ -15,12 +15,15 @@
 //! (`blob_colour_cut_misfits`: two boxes of different colours touching, or turned to each
 //! other, make one object that fits no cuboid); the parts are then tried again. One that passes
 //! is still cut where its plain colour changes so (`blob_colour_cut_delta`: two boxes of
-//! different colours stacked or end to end, sides flush); flush cartons of one colour that fit
-//! one cuboid are split in `select` by their seams, as surfaces are. A small box's faces
-//! bend a little past `max_bend_deg` (its edges' smoothed normals cover much of each face): an
-//! object of three faces that bends no more than `blob_three_face_max_bend_deg`, and that no
-//! colour cut or split parts, is still scored, and kept when it scores at least
-//! `blob_three_face_min_score`.
+//! different colours stacked or end to end, sides flush). One that no cut parts but whose
+//! cells fall into two clusters of clearly different hue, either side of a plane across a box
+//! axis, is scored whole and also cut there (`blob_fit_colour_split_min_chroma`: a box
+//! standing on a carton of another colour); the whole and the parts compete in `select`.
+//! Flush cartons of one colour that fit one cuboid are split in `select` by their seams, as
+//! surfaces are. A small box's faces bend a little past `max_bend_deg` (its edges' smoothed
+//! normals cover much of each face): an object of three faces that bends no more than
+//! `blob_three_face_max_bend_deg`, and that no colour cut or split parts, is still scored, and
+//! kept when it scores at least `blob_three_face_min_score`.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -427,18 +430,28 @@ fn object_candidates(
     cfg: &DetectConfig,
 ) -> Vec<Raw> {
     let dbg = log::log_enabled!(log::Level::Debug);
-    // Part index of each of the object's cells (same order as `cells`); cells outside the
-    // object belong to no part of it.
-    let mut part: Vec<u32> = vec![0; cells.len()];
-    let part_of = |part: &[u32], i: usize| -> Option<u32> {
-        if labels[i] != b {
-            return None;
-        }
-        cells.binary_search(&(i as u32)).ok().map(|k| part[k])
-    };
+    // Parts are numbered for the log only: every part's cells stay ascending (cuts keep
+    // order), and membership is a binary search.
     let mut next = 1u32;
+    // A part scored as one box: its own cells are members, unlabelled cells off the support
+    // are unknown, and the object's other cells are judged by depth like any other.
+    let score_part = |part: &[u32], fr: &Frame| {
+        let face_refs: Vec<&[u32]> = fr.faces.iter().map(Vec::as_slice).collect();
+        let member = |i: usize| part.binary_search(&(i as u32)).is_ok();
+        let unknown = |i: usize| labels[i] == NONE && !off[i];
+        score_faces(
+            g,
+            part.to_vec(),
+            &face_refs,
+            &fr.axes,
+            fr.fit,
+            &member,
+            &unknown,
+            cfg,
+        )
+    };
     // (part, cells, cuts so far)
-    let mut work: Vec<(u32, Vec<u32>, u32)> = vec![(0, cells.clone(), 0)];
+    let mut work: Vec<(u32, Vec<u32>, u32)> = vec![(0, cells, 0)];
     let mut out = Vec::new();
     while let Some((pi, blob, depth)) = work.pop() {
         if blob.len() < cfg.min_face_cells as usize {
@@ -510,7 +523,7 @@ fn object_candidates(
                         // colours part them.
                         let small = blob.len() <= cfg.blob_colour_split_max_cells as usize;
                         let split = (depth < cfg.blob_max_cuts && small)
-                            .then(|| two_colours(g, &blob, cfg))
+                            .then(|| two_colours(g, &blob, cfg.blob_colour_split_min_chroma, cfg))
                             .flatten();
                         match split {
                             Some((lo, hi)) => {
@@ -529,28 +542,27 @@ fn object_candidates(
                             None => continue,
                         }
                     }
-                    None => None,
+                    // It fits, yet may be two boxes of clearly different colours, one on the
+                    // other: scored whole, and its colour clusters tried as well.
+                    None => (cfg.blob_fit_colour_split_min_chroma > 0.0
+                        && depth < cfg.blob_max_cuts)
+                        .then(|| two_colours(g, &blob, cfg.blob_fit_colour_split_min_chroma, cfg))
+                        .flatten()
+                        .and_then(|(lo, _)| colour_plane(g, &blob, &lo, &fr.full, cfg))
+                        .map(|c| {
+                            out.extend(score_part(&blob, &fr));
+                            by_plane(c, "fits, two colours")
+                        }),
                 }
             }
         };
         if let Some((lo, hi)) = parts {
-            for &i in &hi {
-                // Every cell of a part is one of the object's cells.
-                if let Ok(k) = cells.binary_search(&i) {
-                    part[k] = next;
-                }
-            }
             work.push((pi, lo, depth + 1));
             work.push((next, hi, depth + 1));
             next += 1;
             continue;
         }
-        let face_refs: Vec<&[u32]> = fr.faces.iter().map(Vec::as_slice).collect();
-        let member = |i: usize| part_of(&part, i) == Some(pi);
-        let unknown = |i: usize| labels[i] == NONE && !off[i];
-        if let Some(raw) = score_faces(
-            g, blob, &face_refs, &fr.axes, fr.fit, &member, &unknown, cfg,
-        ) {
+        if let Some(raw) = score_part(&blob, &fr) {
             if !bent_box || raw.score >= cfg.blob_three_face_min_score {
                 out.push(raw);
             }
@@ -559,12 +571,62 @@ fn object_candidates(
     out
 }
 
+/// The plane {p·e = s0}, `e` one of the box `axes`, that best parts the colour cluster `lo`
+/// (a subset of `blob`, ascending) from the rest, if at least `blob_fit_colour_split_min_agree`
+/// of the cells fall on their cluster's side and each side holds
+/// `blob_colour_cut_min_fraction` of them: the clusters of two boxes lie apart, those of a
+/// box's shading or print do not.
+fn colour_plane(
+    g: &Grid,
+    blob: &[u32],
+    lo: &[u32],
+    axes: &[Vector3<f64>; 3],
+    cfg: &DetectConfig,
+) -> Option<(Vector3<f64>, f64)> {
+    let n = blob.len();
+    let min_side = (cfg.blob_colour_cut_min_fraction * n as f64).ceil() as usize;
+    let mut best: Option<(usize, Vector3<f64>, f64)> = None;
+    for e in axes {
+        let mut t: Vec<(f64, bool)> = blob
+            .iter()
+            .map(|i| (v3(&g.p[*i as usize]).dot(e), lo.binary_search(i).is_ok()))
+            .collect();
+        t.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let n_lo = t.iter().filter(|x| x.1).count();
+        // Errors with the cluster below the cut: its cells above plus the others below.
+        let mut lo_above = n_lo;
+        let mut other_below = 0usize;
+        for x in 1..n {
+            if t[x - 1].1 {
+                lo_above -= 1;
+            } else {
+                other_below += 1;
+            }
+            if x < min_side || n - x < min_side || t[x].0 <= t[x - 1].0 {
+                continue;
+            }
+            let err_a = lo_above + other_below;
+            let err = err_a.min(n - err_a);
+            if best.is_none_or(|b| err < b.0) {
+                best = Some((err, *e, (t[x - 1].0 + t[x].0) / 2.0));
+            }
+        }
+    }
+    let (err, e, s0) = best?;
+    (err as f64 <= (1.0 - cfg.blob_fit_colour_split_min_agree) * n as f64).then_some((e, s0))
+}
+
 /// The cells of an object that fits no cuboid, parted by colour: two clusters of the cells'
 /// chromaticities ((r, g, b) / (r + g + b) of their smoothed colours; 2-means, 8 rounds,
 /// seeded with the one farthest from the mean and the one farthest from that), when their
 /// centres differ by at least `blob_colour_split_min_chroma` and each holds at least
 /// `blob_colour_cut_min_fraction` of the cells. Deterministic.
-fn two_colours(g: &Grid, blob: &[u32], cfg: &DetectConfig) -> Option<(Vec<u32>, Vec<u32>)> {
+fn two_colours(
+    g: &Grid,
+    blob: &[u32],
+    min_chroma: f64,
+    cfg: &DetectConfig,
+) -> Option<(Vec<u32>, Vec<u32>)> {
     let n = blob.len();
     if n < 32 {
         return None;
@@ -607,9 +669,7 @@ fn two_colours(g: &Grid, blob: &[u32], cfg: &DetectConfig) -> Option<(Vec<u32>, 
         (ca, cb) = (sa / na as f64, sb / (n - na) as f64);
     }
     let frac = cfg.blob_colour_cut_min_fraction;
-    if (ca - cb).norm() < cfg.blob_colour_split_min_chroma
-        || (na.min(n - na) as f64) < frac * n as f64
-    {
+    if (ca - cb).norm() < min_chroma || (na.min(n - na) as f64) < frac * n as f64 {
         return None;
     }
     let (mut lo, mut hi) = (Vec::with_capacity(na), Vec::with_capacity(n - na));
