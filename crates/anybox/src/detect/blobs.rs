@@ -8,9 +8,11 @@
 //! the axes; cells are assigned to the face whose normal they agree with; the cuboid and the
 //! score are those of a face group ([`super::boxes::score_faces`]). An object whose face
 //! direction holds two parallel planes (touching boxes of different heights joined through a
-//! flush side) is cut along the axis that separates them, recursively. Objects that fit a
-//! cuboid badly (`blob_min_fit`, `blob_min_agree`) or whose faces bend (`max_bend_deg`: a
-//! cylinder's side) are dropped, unless their plain colour changes across every face a cut
+//! flush side) is cut along the axis that separates them, recursively; a step that parts
+//! them by less than `blob_step_factor` but more than `blob_weak_step_factor` plane
+//! tolerances cuts the object too, but leaves it scored whole beside its parts. Objects that
+//! fit a cuboid badly (`blob_min_fit`, `blob_min_agree`) or whose faces bend (`max_bend_deg`:
+//! a cylinder's side) are dropped, unless their plain colour changes across every face a cut
 //! crosses, or failing that, their cells fall into two clusters of clearly different hue
 //! (`blob_colour_cut_misfits`: two boxes of different colours touching, or turned to each
 //! other, make one object that fits no cuboid); the parts are then tried again. One that passes
@@ -197,16 +199,26 @@ fn frame_of(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<Frame> {
     })
 }
 
+/// A step found by [`find_step`].
+#[derive(Clone, Copy)]
+struct Step {
+    /// The cut {p·e = s0} between the two planes' cells, `(e, s0)`.
+    cut: (Vector3<f64>, f64),
+    /// The planes part by `blob_step_factor` plane tolerances, not only
+    /// `blob_weak_step_factor`.
+    sure: bool,
+}
+
 /// A step between two parallel planes of one face direction (the tops of two touching boxes
 /// of different heights, the fronts of two cartons set back from each other): the object is
 /// several boxes. Returns the cut {p·e = s0} along another box axis that separates the two
 /// planes' cells (the riser between them), if one does.
-fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<(Vector3<f64>, f64)> {
+fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<Step> {
     if cfg.blob_step_factor <= 0.0 {
         return None;
     }
     let min_cells = cfg.min_face_cells as usize;
-    let mut best: Option<(f64, Vector3<f64>, f64)> = None;
+    let mut best: Option<(bool, f64, Step)> = None;
     for (k, face) in fr.faces.iter().enumerate() {
         if face.len() < 2 * min_cells {
             continue;
@@ -219,6 +231,11 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<(Vector3<f64>, 
         t.sort_by(|a, b| a.0.total_cmp(&b.0));
         let zmed = g.z[t[t.len() / 2].1 as usize] as f64;
         let gap_tol = cfg.blob_step_factor * plane_tol(cfg, zmed);
+        let weak_tol = if cfg.blob_weak_step_factor > 0.0 {
+            gap_tol.min(cfg.blob_weak_step_factor * plane_tol(cfg, zmed))
+        } else {
+            gap_tol
+        };
         // The widest gap with enough cells on both sides (each plane a real face, not a
         // few stray cells from a neighbouring face's rim).
         let side = min_cells.max((cfg.blob_step_min_fraction * t.len() as f64) as usize);
@@ -228,7 +245,7 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<(Vector3<f64>, 
         let mut split: Option<(usize, f64)> = None;
         for x in side..=(t.len() - side) {
             let gap = t[x].0 - t[x - 1].0;
-            if gap > gap_tol && split.is_none_or(|s| gap > s.1) {
+            if gap > weak_tol && split.is_none_or(|s| gap > s.1) {
                 split = Some((x, gap));
             }
         }
@@ -241,9 +258,10 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<(Vector3<f64>, 
                 split.map(|s| (t[s.0 - 1].0, t[s.0].0))
             );
         }
-        let Some((x, _)) = split else {
+        let Some((x, gap)) = split else {
             continue;
         };
+        let sure = gap > gap_tol;
         let (lo_cells, hi_cells) = (&t[..x], &t[x..]);
         // Every box axis, the unseen third one too (the riser between two tops is often
         // hidden); a lone face's in-plane axes are guesses and are not used.
@@ -273,12 +291,13 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<(Vector3<f64>, 
             } else {
                 continue;
             };
-            if best.is_none_or(|b| sep > b.0) {
-                best = Some((sep, *e, s0));
+            if best.is_none_or(|b| (sure, sep) > (b.0, b.1)) {
+                let cut = (*e, s0);
+                best = Some((sure, sep, Step { cut, sure }));
             }
         }
     }
-    best.map(|(_, e, s0)| (e, s0))
+    best.map(|b| b.2)
 }
 
 /// A colour change across the object (two boxes of different colours stacked or end to end,
@@ -491,7 +510,14 @@ fn object_candidates(
             && fr.bend_deg > cfg.max_bend_deg
             && fr.bend_deg <= cfg.blob_three_face_max_bend_deg;
         let parts = match step {
-            Some(c) => Some(by_plane(c, "step")),
+            Some(Step {
+                cut, sure: true, ..
+            }) => Some(by_plane(cut, "step")),
+            Some(Step { cut, sure: false }) => {
+                // A weak step: the whole object competes with its parts.
+                out.extend(score_part(&blob, &fr));
+                Some(by_plane(cut, "weak step"))
+            }
             None => {
                 if dbg && blob.len() > 200 {
                     log::debug!(

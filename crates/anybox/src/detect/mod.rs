@@ -753,6 +753,18 @@ pub struct DetectConfig {
     /// apart than this multiple of the plane tolerance (a step between touching boxes), along
     /// the box axis that separates them; 0 disables. Default 4.
     pub blob_step_factor: f64,
+    /// A step of at least this many plane tolerances but under `blob_step_factor` is weak:
+    /// the object is scored whole and cut at it as well, and the whole and the parts compete
+    /// in `select` (a sure step cuts alone). Two touching boxes whose tops differ by 45 mm at
+    /// 1.2 m, or a box on a carton barely set back from its edges, step by less than four
+    /// plane tolerances; at one, most boxes' noisy faces do too, and then the whole wins.
+    /// 0 (or not below `blob_step_factor`) disables. Default 1 (bench, 48 views, seeds 2026 /
+    /// 7 / 11 / 3 / 5 / 13, with `blob_fit_colour_split_min_chroma`: mean AP@0.5 of the 15
+    /// rows 0.6914 → 0.6950, tables +0.007 / +0.006 / +0.009, pallets −0.002, shelves −0.001;
+    /// 1.5 gave 0.6944, and alone 1 / 1.5 / 2 / 2.5 / 3 gave 0.6919 / 0.6912 / 0.6907 /
+    /// 0.6887 / 0.6882 against 0.6879; the cut along the planes' normal in front of the
+    /// farther plane, tried as well, added 0.0001 and cost shelves 0.004).
+    pub blob_weak_step_factor: f64,
     /// ... when each plane holds at least this fraction of the face's cells. Default 0.15.
     pub blob_step_min_fraction: f64,
     /// An object is also cut in two where its colour changes across it by at least this
@@ -1031,6 +1043,7 @@ impl Default for DetectConfig {
             blob_colour_cut_min_fraction: 0.15,
             blob_colour_cut_max_spread: 0.1,
             blob_step_factor: 4.0,
+            blob_weak_step_factor: 1.0,
             blob_step_min_fraction: 0.15,
             blob_support_gap_factor: 1.5,
             blob_normal_tol_deg: 20.0,
