@@ -1416,16 +1416,17 @@ fn a_taped_top_whose_half_is_in_two_pieces_is_bridged_whole() {
     // carton's detection lost most of its top.
     let v = pallet_view(2026, 48, 41);
     // Premise: with the former overlap the top is lost.
-    let (whole, cut) = best_ious_with_and_without(
+    assert_found_only_with_rule(
         &v,
         &box_of_size(&v, [217.0, 271.0, 474.0]).mask_visib,
         &DetectConfig {
             tape_overlap: 0.7,
             ..DetectConfig::default()
         },
+        0.9,
+        0.75,
+        "with tape_overlap 0.7",
     );
-    assert!(whole > 0.9, "best mask IoU {whole:.3}");
-    assert!(cut < 0.75, "best mask IoU with tape_overlap 0.7: {cut:.3}");
 }
 
 #[test]
@@ -1437,18 +1438,16 @@ fn a_strip_of_a_face_does_not_keep_the_face_from_its_carton() {
     // as its top and the strip (best mask IoU 0.58).
     let v = table_d0_view_of(7, 48, 7);
     // Premise: without the alternative the front is lost.
-    let (whole, cut) = best_ious_with_and_without(
+    assert_found_only_with_rule(
         &v,
         &wholly_visible_box_of_size(&v, [76.0, 198.0, 300.0]).mask_visib,
         &DetectConfig {
             coplanar_alternatives: false,
             ..DetectConfig::default()
         },
-    );
-    assert!(whole > 0.9, "best mask IoU {whole:.3}");
-    assert!(
-        cut < 0.7,
-        "best mask IoU without coplanar_alternatives: {cut:.3}"
+        0.9,
+        0.7,
+        "without coplanar_alternatives",
     );
 }
 
@@ -1466,18 +1465,16 @@ fn a_group_takes_in_the_strips_along_its_faces() {
         "the generator's scene changed"
     );
     // Premise: without the alternative the strips stay out.
-    let (whole, short) = best_ious_with_and_without(
+    assert_found_only_with_rule(
         &v,
         &gt.mask_visib,
         &DetectConfig {
             strip_alternatives: false,
             ..DetectConfig::default()
         },
-    );
-    assert!(whole > 0.9, "best mask IoU {whole:.3}");
-    assert!(
-        short < 0.82,
-        "best mask IoU without strip_alternatives: {short:.3}"
+        0.9,
+        0.82,
+        "without strip_alternatives",
     );
 }
 
@@ -1489,18 +1486,16 @@ fn a_small_box_whose_faces_bend_a_little_is_found() {
     // their halves' mean normals part by 10.5°, past `max_bend_deg`: no detection at all.
     let v = table_d0_view_of(11, 48, 20);
     // Premise: with the three-face allowance off the box is not found.
-    let (found, lost) = best_ious_with_and_without(
+    assert_found_only_with_rule(
         &v,
         &wholly_visible_box_of_size(&v, [58.0, 60.0, 99.0]).mask_visib,
         &DetectConfig {
             blob_three_face_max_bend_deg: 0.0,
             ..DetectConfig::default()
         },
-    );
-    assert!(found > 0.85, "best mask IoU {found:.3}");
-    assert!(
-        lost < 0.1,
-        "best mask IoU without the three-face allowance: {lost:.3}"
+        0.85,
+        0.1,
+        "without the three-face allowance",
     );
 }
 
@@ -1516,18 +1511,16 @@ fn a_box_on_a_carton_of_another_colour_parts_from_it() {
     let carton = box_of_size(&v, [103.0, 245.0, 349.0]);
     assert!(carton.visib_fract > 0.8, "the generator's scene changed");
     // Premise: with the split off, the carton's best mask leaves out its top.
-    let (found, lost) = best_ious_with_and_without(
+    assert_found_only_with_rule(
         &v,
         &carton.mask_visib,
         &DetectConfig {
             blob_fit_colour_split_min_chroma: 0.0,
             ..DetectConfig::default()
         },
-    );
-    assert!(found > 0.9, "best mask IoU {found:.3}");
-    assert!(
-        lost < 0.8,
-        "best mask IoU without the colour split of fitting objects: {lost:.3}"
+        0.9,
+        0.8,
+        "without the colour split of fitting objects",
     );
 }
 
@@ -1543,33 +1536,41 @@ fn touching_boxes_whose_tops_differ_a_little_part() {
         let b = box_of_size(&v, size_mm);
         assert!(b.visib_fract > 0.9, "the generator's scene changed");
         // Premise: with weak steps off, the box's best mask takes in the other.
-        let (found, merged) = best_ious_with_and_without(
+        assert_found_only_with_rule(
             &v,
             &b.mask_visib,
             &DetectConfig {
                 blob_weak_step_factor: 0.0,
                 ..DetectConfig::default()
             },
-        );
-        assert!(found > 0.85, "{size_mm:?}: best mask IoU {found:.3}");
-        assert!(
-            merged < 0.65,
-            "{size_mm:?}: best mask IoU without weak steps: {merged:.3}"
+            0.85,
+            0.65,
+            &format!("{size_mm:?} without weak steps"),
         );
     }
 }
 
-/// The best mask IoU of any detection of `v` with `gt`, under the default configuration and
-/// under `off` (a rule turned off).
-fn best_ious_with_and_without(
+/// Asserts that some detection of `v` has a mask IoU above `found_above` with `gt` under the
+/// default configuration, and none above `lost_below` under `off` (a rule turned off, which
+/// `without` names in the message): a test of the rule and of its premise together.
+fn assert_found_only_with_rule(
     v: &anybox_synth::SynthView,
     gt: &Mask,
     off: &DetectConfig,
-) -> (f64, f64) {
-    (
-        best_iou_detected(v, gt, &DetectConfig::default()),
-        best_iou_detected(v, gt, off),
-    )
+    found_above: f64,
+    lost_below: f64,
+    without: &str,
+) {
+    let found = best_iou_detected(v, gt, &DetectConfig::default());
+    let lost = best_iou_detected(v, gt, off);
+    assert!(
+        found > found_above,
+        "best mask IoU {found:.3} (and {lost:.3} {without})"
+    );
+    assert!(
+        lost < lost_below,
+        "best mask IoU {lost:.3} {without} (and {found:.3} with the rule)"
+    );
 }
 
 #[test]
@@ -1589,18 +1590,16 @@ fn a_top_seen_along_one_edge_only_stays_with_its_carton() {
         "the generator's scene changed"
     );
     // Premise: without the alternative the carton's best mask takes in its neighbour.
-    let (found, merged) = best_ious_with_and_without(
+    assert_found_only_with_rule(
         &v,
         &gt.mask_visib,
         &DetectConfig {
             corner_alternatives: false,
             ..DetectConfig::default()
         },
-    );
-    assert!(found > 0.9, "best mask IoU {found:.3}");
-    assert!(
-        merged < 0.8,
-        "best mask IoU without corner_alternatives: {merged:.3}"
+        0.9,
+        0.8,
+        "without corner_alternatives",
     );
 }
 
@@ -1651,18 +1650,16 @@ fn a_far_dark_carton_is_a_box_though_its_faces_bend() {
     // carton had no detection at all.
     let v = pallet_view(2026, 48, 40);
     // Premise: with one bend limit at every depth the carton is not detected.
-    let (found, flat) = best_ious_with_and_without(
+    assert_found_only_with_rule(
         &v,
         &wholly_visible_box_of_size(&v, [292.0, 292.0, 386.0]).mask_visib,
         &DetectConfig {
             bend_ref_depth_mm: 0.0,
             ..DetectConfig::default()
         },
-    );
-    assert!(found > 0.9, "best mask IoU {found:.3}");
-    assert!(
-        flat < 0.1,
-        "best mask IoU with a flat bend limit: {flat:.3}"
+        0.9,
+        0.1,
+        "with a flat bend limit",
     );
 }
 
