@@ -212,7 +212,8 @@ struct Step {
 /// A step between two parallel planes of one face direction (the tops of two touching boxes
 /// of different heights, the fronts of two cartons set back from each other): the object is
 /// several boxes. Returns the cut {p·e = s0} along another box axis that separates the two
-/// planes' cells (the riser between them), if one does.
+/// planes' cells (the riser between them), if one does; a sure step before a weak one, then
+/// the wider separation.
 fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<Step> {
     if cfg.blob_step_factor <= 0.0 {
         return None;
@@ -510,9 +511,7 @@ fn object_candidates(
             && fr.bend_deg > cfg.max_bend_deg
             && fr.bend_deg <= cfg.blob_three_face_max_bend_deg;
         let parts = match step {
-            Some(Step {
-                cut, sure: true, ..
-            }) => Some(by_plane(cut, "step")),
+            Some(Step { cut, sure: true }) => Some(by_plane(cut, "step")),
             Some(Step { cut, sure: false }) => {
                 // A weak step: the whole object competes with its parts.
                 out.extend(score_part(&blob, &fr));
