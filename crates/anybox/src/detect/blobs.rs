@@ -219,7 +219,8 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<Step> {
         return None;
     }
     let min_cells = cfg.min_face_cells as usize;
-    let mut best: Option<(bool, f64, Step)> = None;
+    // The best step and its separation.
+    let mut best: Option<(Step, f64)> = None;
     for (k, face) in fr.faces.iter().enumerate() {
         if face.len() < 2 * min_cells {
             continue;
@@ -231,9 +232,10 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<Step> {
             .collect();
         t.sort_by(|a, b| a.0.total_cmp(&b.0));
         let zmed = g.z[t[t.len() / 2].1 as usize] as f64;
-        let gap_tol = cfg.blob_step_factor * plane_tol(cfg, zmed);
+        let tol = plane_tol(cfg, zmed);
+        let gap_tol = cfg.blob_step_factor * tol;
         let weak_tol = if cfg.blob_weak_step_factor > 0.0 {
-            gap_tol.min(cfg.blob_weak_step_factor * plane_tol(cfg, zmed))
+            gap_tol.min(cfg.blob_weak_step_factor * tol)
         } else {
             gap_tol
         };
@@ -292,13 +294,13 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<Step> {
             } else {
                 continue;
             };
-            if best.is_none_or(|b| (sure, sep) > (b.0, b.1)) {
+            if best.is_none_or(|(b, bsep)| (sure, sep) > (b.sure, bsep)) {
                 let cut = (*e, s0);
-                best = Some((sure, sep, Step { cut, sure }));
+                best = Some((Step { cut, sure }, sep));
             }
         }
     }
-    best.map(|b| b.2)
+    best.map(|(step, _)| step)
 }
 
 /// A colour change across the object (two boxes of different colours stacked or end to end,
