@@ -794,9 +794,9 @@ pub(crate) fn group_candidates(
             && (rb.centroid - rx.centroid).dot(&rx.normal).abs() <= tol
             && (rx.centroid - rb.centroid).dot(&rb.normal).abs() <= tol
     };
-    // Region `r` is a strip of face region `f`: at most half its size, and no wider than a
-    // tape along one of eight directions in `f`'s plane (22.5° apart).
-    let strip = |r: usize, f: usize| {
+    // Region `r` is no wider than a tape along one of eight directions in face region `f`'s
+    // plane (22.5° apart).
+    let narrow = |r: usize, f: usize| {
         let rf = &regions[f];
         let u = rf
             .normal
@@ -804,12 +804,13 @@ pub(crate) fn group_candidates(
             .try_normalize(1e-6)
             .unwrap_or_else(|| rf.normal.cross(&Vector3::y()).normalize());
         let v = rf.normal.cross(&u);
-        2 * regions[r].n <= rf.n
-            && (0..8).any(|k| {
-                let t = k as f64 * std::f64::consts::PI / 8.0;
-                extent_along(r, &(u * t.cos() + v * t.sin())) <= cfg.tape_max_width_mm
-            })
+        (0..8).any(|k| {
+            let t = k as f64 * std::f64::consts::PI / 8.0;
+            extent_along(r, &(u * t.cos() + v * t.sin())) <= cfg.tape_max_width_mm
+        })
     };
+    // Region `r` is a strip of face region `f`: narrow, and at most half its size.
+    let strip = |r: usize, f: usize| 2 * regions[r].n <= regions[f].n && narrow(r, f);
     // The largest region of a face of several (whose normal is the face's).
     let largest = |f: &[usize]| f.iter().copied().max_by_key(|&r| regions[r].n).unwrap_or(0);
     // Every two faces still share an edge of about the same length on both: the join
@@ -862,6 +863,64 @@ pub(crate) fn group_candidates(
             faces[fi].sort_unstable();
         }
         added
+    };
+    // Each face also takes in, until none is left, the narrow coplanar regions it touches
+    // that run the whole length of each edge it shares with another face of the group
+    // (`edge_length_ratio`), of any size, while the edges still fit: the rest of a top or
+    // front that tape, print or a grazing view cut into bands parallel to the box's edge.
+    // Whether any was.
+    let bridge_bands = |faces: &mut Vec<Vec<usize>>| -> bool {
+        let mut added = false;
+        loop {
+            let mut more = false;
+            for fi in 0..faces.len() {
+                let f0 = largest(&faces[fi]);
+                // A band along every edge of this face shared with another face.
+                let band = |r: usize, faces: &[Vec<usize>]| {
+                    faces.iter().enumerate().all(|(gi, gf)| {
+                        if gi == fi {
+                            return true;
+                        }
+                        let Some(e) = regions[f0]
+                            .normal
+                            .cross(&regions[largest(gf)].normal)
+                            .try_normalize(1e-9)
+                        else {
+                            return false;
+                        };
+                        extent_along(r, &e) >= cfg.edge_length_ratio * extent_of(&faces[fi], &e)
+                    })
+                };
+                for (&(p, q), &c) in &contact {
+                    let (p, q) = (p as usize, q as usize);
+                    let r = if faces[fi].contains(&p) {
+                        q
+                    } else if faces[fi].contains(&q) {
+                        p
+                    } else {
+                        continue;
+                    };
+                    if c >= cfg.min_contact_cells
+                        && !faces.iter().any(|f| f.contains(&r))
+                        && coplanar(f0, r)
+                        && narrow(r, f0)
+                        && band(r, faces)
+                    {
+                        faces[fi].push(r);
+                        if edges_fit(faces) {
+                            more = true;
+                        } else {
+                            faces[fi].pop();
+                        }
+                    }
+                }
+                faces[fi].sort_unstable();
+            }
+            if !more {
+                return added;
+            }
+            added = true;
+        }
     };
     let coplanar_join = |ga: &[usize], gb: &[usize], a: usize, b: usize| {
         let (ga, b) = if gb.len() == 1 && gb[0] == b {
@@ -966,6 +1025,12 @@ pub(crate) fn group_candidates(
             }
             let mut faces: Vec<Vec<usize>> = mem.iter().map(|&f| vec![f]).collect();
             if absorb_strips(&mut faces) {
+                faces.sort_unstable();
+                if !extra.contains(&faces) {
+                    extra.push(faces.clone());
+                }
+            }
+            if cfg.band_alternatives && bridge_bands(&mut faces) {
                 faces.sort_unstable();
                 if !extra.contains(&faces) {
                     extra.push(faces);
