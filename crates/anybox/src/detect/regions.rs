@@ -531,7 +531,8 @@ pub(crate) fn bridge_tape(
             cells[l as usize].push(i);
         }
     }
-    // Neighbours within a few cells along rows and columns.
+    // Neighbours within a few cells along rows and columns, looking past slivers
+    // (`tape_sliver_cells`).
     let gap = 6usize;
     let mut nb: Vec<Vec<usize>> = vec![Vec::new(); n];
     for v in 0..h {
@@ -558,7 +559,9 @@ pub(crate) fn bridge_tape(
                         nb[a].push(b);
                         nb[b].push(a);
                     }
-                    break;
+                    if cells[b].len() >= cfg.tape_sliver_cells as usize {
+                        break;
+                    }
                 }
             }
         }
