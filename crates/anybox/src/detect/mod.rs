@@ -204,6 +204,12 @@ pub struct DetectConfig {
     /// pallets 0.6880 → 0.6912, shelves 0.5675 → 0.5753, tables +0.0003 to +0.0007; the
     /// mean rose on every seed).
     pub tape_sliver_cells: u32,
+    /// ... and within this many grid cells of it along rows and columns: the far half of a
+    /// top can lie past a tape's shaded edge and a sliver. Default 10 (bench, 48 views, seeds
+    /// 2026 / 7 / 11 / 3 / 5 / 13, mean AP@0.5 of the 15 rows: 4 0.6825, 6 0.7014, 10
+    /// 0.7022, 14 0.7024; pallets 0.6912 → 0.6935 from 6 to 10, and no seed's mean fell,
+    /// while 14 lowered seeds 7 and 13 by up to 0.0012).
+    pub tape_side_gap_cells: u32,
     /// A strip is bridged whatever the tilt of its own fitted plane (the halves must still be
     /// one plane, and the strip lie in it) when it runs along at least this fraction of the
     /// halves' overlap; shorter pieces must also be coplanar with the halves by their own
@@ -954,6 +960,7 @@ impl Default for DetectConfig {
             tape_colour_delta: 25.0,
             tape_overlap: 0.5,
             tape_sliver_cells: 128,
+            tape_side_gap_cells: 10,
             tape_tilted_min_length: 0.4,
             tape_strip_max_tilt_deg: 75.0,
             min_region_cells: 12,

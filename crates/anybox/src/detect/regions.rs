@@ -531,9 +531,9 @@ pub(crate) fn bridge_tape(
             cells[l as usize].push(i);
         }
     }
-    // Neighbours within a few cells along rows and columns, looking past slivers
+    // Neighbours within `tape_side_gap_cells` along rows and columns, looking past slivers
     // (`tape_sliver_cells`).
-    let gap = 6usize;
+    let gap = cfg.tape_side_gap_cells.max(1) as usize;
     let mut nb: Vec<Vec<usize>> = vec![Vec::new(); n];
     for v in 0..h {
         for u in 0..w {
