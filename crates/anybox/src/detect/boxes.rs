@@ -829,6 +829,27 @@ pub(crate) fn group_candidates(
             })
         })
     };
+    // The region of contact `(p, q)` that is not in `face`, when the other one is.
+    let across = |face: &[usize], p: u32, q: u32| -> Option<usize> {
+        let (p, q) = (p as usize, q as usize);
+        if face.contains(&p) {
+            Some(q)
+        } else if face.contains(&q) {
+            Some(p)
+        } else {
+            None
+        }
+    };
+    // Adds region `r` to face `fi` when the edges still fit after. Whether it was.
+    let take_in = |faces: &mut Vec<Vec<usize>>, fi: usize, r: usize| -> bool {
+        faces[fi].push(r);
+        if edges_fit(faces) {
+            true
+        } else {
+            faces[fi].pop();
+            false
+        }
+    };
     // Each face also takes in the other regions coplanar with it that it touches (the rest
     // of a top that print or tape cut in pieces), while the edges still fit. Whether any was.
     let absorb_strips = |faces: &mut Vec<Vec<usize>>| -> bool {
@@ -837,27 +858,17 @@ pub(crate) fn group_candidates(
         for fi in 0..faces.len() {
             let f0 = largest(&faces[fi]);
             for (&(p, q), &c) in &contact {
-                let (p, q) = (p as usize, q as usize);
-                let face = &faces[fi];
-                let r = if face.contains(&p) {
-                    q
-                } else if face.contains(&q) {
-                    p
-                } else {
+                let Some(r) = across(&faces[fi], p, q) else {
                     continue;
                 };
                 if c >= cfg.min_contact_cells
                     && !taken.contains(&r)
-                    && !face.contains(&r)
+                    && !faces[fi].contains(&r)
                     && coplanar(f0, r)
                     && strip(r, f0)
+                    && take_in(faces, fi, r)
                 {
-                    faces[fi].push(r);
-                    if edges_fit(faces) {
-                        added = true;
-                    } else {
-                        faces[fi].pop();
-                    }
+                    added = true;
                 }
             }
             faces[fi].sort_unstable();
@@ -892,12 +903,7 @@ pub(crate) fn group_candidates(
                     })
                 };
                 for (&(p, q), &c) in &contact {
-                    let (p, q) = (p as usize, q as usize);
-                    let r = if faces[fi].contains(&p) {
-                        q
-                    } else if faces[fi].contains(&q) {
-                        p
-                    } else {
+                    let Some(r) = across(&faces[fi], p, q) else {
                         continue;
                     };
                     if c >= cfg.min_contact_cells
@@ -905,13 +911,9 @@ pub(crate) fn group_candidates(
                         && coplanar(f0, r)
                         && narrow(r, f0)
                         && band(r, faces)
+                        && take_in(faces, fi, r)
                     {
-                        faces[fi].push(r);
-                        if edges_fit(faces) {
-                            more = true;
-                        } else {
-                            faces[fi].pop();
-                        }
+                        more = true;
                     }
                 }
                 faces[fi].sort_unstable();
