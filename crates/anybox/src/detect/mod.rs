@@ -408,8 +408,8 @@ pub struct DetectConfig {
     /// 0.6879, every seed higher; pallets 0.6787 → 0.6847, shelves 0.5605 → 0.5687, tables
     /// +0.003 / +0.003 / +0.005).
     pub strip_alternatives: bool,
-    /// Colour-level groups of two or three faces also yield one more candidate each (after
-    /// the strips of `strip_alternatives`, where there were any), in which each face takes
+    /// With `strip_alternatives` on, colour-level groups of two or three faces also yield one
+    /// more candidate each (after the strips, where there were any), in which each face takes
     /// in, repeatedly, the coplanar regions it touches that are no wider than
     /// `tape_max_width_mm` across and run the whole length of every edge the face shares with
     /// another face of the group (`edge_length_ratio`), whatever their size: the rest of a
@@ -418,7 +418,7 @@ pub struct DetectConfig {
     /// Every two faces must still share an edge of about the same length. Scored like any
     /// other; the better reading wins. Default true (bench, 48 views, seeds 2026 / 7 / 11 /
     /// 3 / 5 / 13, mean AP@0.5 of the 15 rows: 0.6972 → 0.6989; pallets 0.6840 → 0.6880,
-    /// tables +0.001 / +0.0015 / +0.002, shelves −0.0007. Without the whole-length rule
+    /// tables +0.001 / +0.0016 / +0.002, shelves −0.0007. Without the whole-length rule
     /// 0.6988, with the regions' colours also within `tape_colour_delta` 0.6983, with no
     /// region larger than the face's largest 0.6971.)
     pub band_alternatives: bool,
