@@ -612,14 +612,16 @@ fn colour_plane(
 ) -> Option<(Vector3<f64>, f64)> {
     let n = blob.len();
     let min_side = (cfg.blob_colour_cut_min_fraction * n as f64).ceil() as usize;
+    let in_lo: Vec<bool> = blob.iter().map(|i| lo.binary_search(i).is_ok()).collect();
+    let n_lo = in_lo.iter().filter(|&&x| x).count();
     let mut best: Option<(usize, Vector3<f64>, f64)> = None;
     for e in axes {
         let mut t: Vec<(f64, bool)> = blob
             .iter()
-            .map(|i| (v3(&g.p[*i as usize]).dot(e), lo.binary_search(i).is_ok()))
+            .zip(&in_lo)
+            .map(|(i, &l)| (v3(&g.p[*i as usize]).dot(e), l))
             .collect();
         t.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let n_lo = t.iter().filter(|x| x.1).count();
         // Errors with the cluster below the cut: its cells above plus the others below.
         let mut lo_above = n_lo;
         let mut other_below = 0usize;
@@ -643,10 +645,11 @@ fn colour_plane(
     (err as f64 <= (1.0 - cfg.blob_fit_colour_split_min_agree) * n as f64).then_some((e, s0))
 }
 
-/// The cells of an object that fits no cuboid, parted by colour: two clusters of the cells'
-/// chromaticities ((r, g, b) / (r + g + b) of their smoothed colours; 2-means, 8 rounds,
-/// seeded with the one farthest from the mean and the one farthest from that), when their
-/// centres differ by at least `blob_colour_split_min_chroma` and each holds at least
+/// The cells of an object parted by colour: two clusters of the cells' chromaticities
+/// ((r, g, b) / (r + g + b) of their smoothed colours; 2-means, 8 rounds, seeded with the one
+/// farthest from the mean and the one farthest from that), when their centres differ by at
+/// least `min_chroma` (`blob_colour_split_min_chroma` for an object that fits no cuboid,
+/// `blob_fit_colour_split_min_chroma` for one that does) and each holds at least
 /// `blob_colour_cut_min_fraction` of the cells. Deterministic.
 fn two_colours(
     g: &Grid,
