@@ -25,7 +25,9 @@
 //! surfaces are. A small box's faces bend a little past `max_bend_deg` (its edges' smoothed
 //! normals cover much of each face): an object of three faces that bends no more than
 //! `blob_three_face_max_bend_deg`, and that no colour cut or split parts, is still scored, and
-//! kept when it scores at least `blob_three_face_min_score`.
+//! kept when it scores at least `blob_three_face_min_score`. An object of which nothing came
+//! is read once more as a box standing on the support (`blob_upright_fallback`): one axis along
+//! the support's up, its cells on the nearest face plane, scored as a last resort.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -420,6 +422,7 @@ pub(crate) fn blob_candidates(
     labels: &[u32],
     n_blobs: usize,
     off: &[bool],
+    up: Option<Vector3<f64>>,
     cfg: &DetectConfig,
 ) -> Vec<Raw> {
     let mut cells: Vec<Vec<u32>> = vec![Vec::new(); n_blobs];
@@ -434,7 +437,7 @@ pub(crate) fn blob_candidates(
     let per_object: Vec<Vec<Raw>> = cells
         .into_par_iter()
         .enumerate()
-        .map(|(b, c)| object_candidates(g, labels, b as u32, c, off, cfg))
+        .map(|(b, c)| object_candidates(g, labels, b as u32, c, off, up, cfg))
         .collect();
     let mut out: Vec<Raw> = per_object.into_iter().rev().flatten().collect();
     out.sort_by(|a, b| b.score.total_cmp(&a.score));
@@ -449,9 +452,12 @@ fn object_candidates(
     b: u32,
     cells: Vec<u32>,
     off: &[bool],
+    up: Option<Vector3<f64>>,
     cfg: &DetectConfig,
 ) -> Vec<Raw> {
     let dbg = log::log_enabled!(log::Level::Debug);
+    // Kept for the upright reading below, only where it may be needed.
+    let whole = (cfg.blob_upright_fallback && up.is_some()).then(|| cells.clone());
     // Parts are numbered for the log only: every part's cells stay ascending (cuts keep
     // order), and membership is a binary search.
     let mut next = 1u32;
@@ -595,7 +601,109 @@ fn object_candidates(
             }
         }
     }
+    // Nothing came of the object: read it once more as a box standing on the support.
+    if let (true, Some(whole), Some(up)) = (out.is_empty(), whole, up) {
+        if let Some(fr) = upright_frame(g, &whole, &up, cfg) {
+            let (n_faces, fit) = (fr.axes.len(), fr.fit);
+            let raw = if fit < cfg.blob_min_fit {
+                None
+            } else if let Some(raw) = score_part(&whole, &fr) {
+                Some(raw)
+            } else if fr.axes.len() > 1 {
+                // A side seen only in its upper part (the foot is cut off at the support) can
+                // be too thin for a box: the largest face alone, then.
+                let lone = Frame {
+                    axes: vec![fr.axes[0]],
+                    faces: vec![fr.faces[0].clone()],
+                    ..fr
+                };
+                score_part(&whole, &lone)
+            } else {
+                None
+            };
+            // A last resort: scored below the other candidates.
+            let raw = raw.map(|mut r| {
+                r.score *= cfg.blob_upright_score_factor;
+                r
+            });
+            if dbg && whole.len() > 100 {
+                let (mut u0, mut v0, mut u1, mut v1) = (usize::MAX, usize::MAX, 0, 0);
+                for &i in &whole {
+                    let (u, v) = (i as usize % g.w, i as usize / g.w);
+                    (u0, v0, u1, v1) = (u0.min(u), v0.min(v), u1.max(u), v1.max(v));
+                }
+                log::debug!(
+                    "blob {b} n {} upright faces {n_faces} fit {fit:.2} score {:?} bbox ({u0}, {v0}, {u1}, {v1})",
+                    whole.len(),
+                    raw.as_ref().map(|r| (r.score * 100.0).round() / 100.0),
+                );
+            }
+            out.extend(raw);
+        }
+    }
     out
+}
+
+/// An object's box frame with one axis along the support's `up` (unit) and the other two
+/// those of the smallest rectangle around its cells seen along `up`: a box resting on a
+/// support, or on a box that does, stands on one of its faces. Cells are assigned to the
+/// visible face plane they lie nearest to (not by normal: on a box a few cells across, the
+/// smoothed normals blur from one face into the next), within
+/// `blob_upright_face_tol_factor` plane tolerances; faces with fewer cells than
+/// `min_face_cells` (or `blob_min_face_fraction` of the object's) are left out.
+fn upright_frame(g: &Grid, cells: &[u32], up: &Vector3<f64>, cfg: &DetectConfig) -> Option<Frame> {
+    let pts: Vec<Vector3<f64>> = cells.iter().map(|&i| v3(&g.p[i as usize])).collect();
+    if pts.len() < cfg.min_face_cells as usize {
+        return None;
+    }
+    let mean = pts.iter().sum::<Vector3<f64>>() / pts.len() as f64;
+    let full = rectangle_axes(up, &pts, cfg.extent_quantile);
+    // Each axis turned to the camera (at the origin): its visible face is the plane at the
+    // top of the cells' range along it.
+    let axes: [Vector3<f64>; 3] = full.map(|a| if a.dot(&mean) > 0.0 { -a } else { a });
+    let mut vals = Vec::with_capacity(pts.len());
+    let offsets: [f64; 3] = axes.map(|a| {
+        vals.clear();
+        vals.extend(pts.iter().map(|p| p.dot(&a)));
+        robust_range(&mut vals, cfg.extent_quantile).1
+    });
+    let min_face = (cfg.min_face_cells as usize)
+        .max((cfg.blob_min_face_fraction * cells.len() as f64) as usize);
+    let mut faces: [Vec<u32>; 3] = Default::default();
+    let mut on_plane = 0usize;
+    for (&i, p) in cells.iter().zip(&pts) {
+        let tol = plane_tol(cfg, g.z[i as usize] as f64);
+        let (k, d) = (0..3)
+            .map(|k| (k, (offsets[k] - p.dot(&axes[k])).abs()))
+            .min_by(|x, y| x.1.total_cmp(&y.1))?;
+        if d <= tol {
+            on_plane += 1;
+        }
+        if d <= cfg.blob_upright_face_tol_factor * tol {
+            faces[k].push(i);
+        }
+    }
+    let assigned: usize = faces.iter().map(Vec::len).sum();
+    // Largest face first, as `frame_of` has its dominant normal first.
+    let mut kept: Vec<(Vector3<f64>, Vec<u32>)> = axes
+        .into_iter()
+        .zip(faces)
+        .filter(|(_, f)| f.len() >= min_face)
+        .collect();
+    if kept.is_empty() {
+        return None;
+    }
+    kept.sort_by_key(|(_, f)| std::cmp::Reverse(f.len()));
+    let (axes, faces): (Vec<_>, Vec<_>) = kept.into_iter().unzip();
+    Some(Frame {
+        axes,
+        faces,
+        fit: on_plane as f64 / cells.len() as f64,
+        agree: assigned as f64 / cells.len() as f64,
+        full,
+        // Not judged: the faces are cut by position, and a small box's edge cells tilt.
+        bend_deg: 0.0,
+    })
 }
 
 /// The plane {p·e = s0}, `e` one of the box `axes`, that best parts the colour cluster `lo`
