@@ -463,7 +463,7 @@ fn object_candidates(
     let mut next = 1u32;
     // A part scored as one box: its own cells are members, unlabelled cells off the support
     // are unknown, and the object's other cells are judged by depth like any other.
-    let score_part = |part: &[u32], fr: &Frame| {
+    let score_in = |part: &[u32], fr: &Frame, cfg: &DetectConfig| {
         let face_refs: Vec<&[u32]> = fr.faces.iter().map(Vec::as_slice).collect();
         let member = |i: usize| part.binary_search(&(i as u32)).is_ok();
         let unknown = |i: usize| labels[i] == NONE && !off[i];
@@ -478,6 +478,7 @@ fn object_candidates(
             cfg,
         )
     };
+    let score_part = |part: &[u32], fr: &Frame| score_in(part, fr, cfg);
     // (part, cells, cuts so far)
     let mut work: Vec<(u32, Vec<u32>, u32)> = vec![(0, cells, 0)];
     let mut out = Vec::new();
@@ -607,11 +608,10 @@ fn object_candidates(
             let (n_faces, fit) = (fr.axes.len(), fr.fit);
             let raw = if fit < cfg.blob_min_fit {
                 None
-            } else if let Some(raw) = score_part(&whole, &fr) {
+            } else if let Some(raw) = score_in(&whole, &fr, &upright_cfg(cfg)) {
                 Some(raw)
             } else if fr.axes.len() > 1 {
-                // A side seen only in its upper part (the foot is cut off at the support) can
-                // be too thin for a box: the largest face alone, then.
+                // The largest face alone, then.
                 let lone = Frame {
                     axes: vec![fr.axes[0]],
                     faces: vec![fr.faces[0].clone()],
@@ -642,6 +642,16 @@ fn object_candidates(
         }
     }
     out
+}
+
+/// The configuration an upright reading is scored with: its sides are seen only above the
+/// cells cut off at the support (`blob_support_gap_factor` plane tolerances, 26 mm at 1.5 m),
+/// so a low box's may be thinner than `min_box_extent_mm`.
+fn upright_cfg(cfg: &DetectConfig) -> DetectConfig {
+    DetectConfig {
+        min_box_extent_mm: cfg.min_box_extent_mm.min(cfg.blob_upright_min_extent_mm),
+        ..cfg.clone()
+    }
 }
 
 /// An object's box frame with one axis along the support's `up` (unit) and the other two

@@ -919,6 +919,10 @@ pub struct DetectConfig {
     /// ... a cell belongs to the nearest visible face plane within this multiple of the plane
     /// tolerance at its depth. Default 2.
     pub blob_upright_face_tol_factor: f64,
+    /// ... and it may be as thin as this along any axis, mm (in place of `min_box_extent_mm`):
+    /// the cells next to the support are cut off the object, and a low box's sides with
+    /// them. Default 10.
+    pub blob_upright_min_extent_mm: f64,
     /// ... and it is then scored this times its own score: a last resort, below the other
     /// candidates. Default 0.05 (0.15: mean AP@0.5 0.7041, 0.3: 0.7034).
     pub blob_upright_score_factor: f64,
@@ -1121,6 +1125,7 @@ impl Default for DetectConfig {
             blob_three_face_min_score: 0.8,
             blob_upright_fallback: true,
             blob_upright_face_tol_factor: 2.0,
+            blob_upright_min_extent_mm: 10.0,
             blob_upright_score_factor: 0.05,
             alternatives_max: 2,
             alternative_score_factor: 0.1,

@@ -2410,3 +2410,26 @@ fn a_faint_strip_across_a_face_is_bridged() {
         "with tape_min_contrast 25",
     );
 }
+
+#[test]
+fn a_low_box_read_standing_may_show_thin_sides() {
+    // Generated table scene (seed 2026, 48 scenes, scene 21: `SEED=2026 ONLY=table-d0
+    // VIEW=21` with `detect_dev 48`): a 53 × 100 × 46 mm box lying on the table 1.5 m away.
+    // Its object is read as one face whose rectangle fills too few corners, and read
+    // standing, its sides show only their upper 19 mm: the cells next to the table are cut
+    // off the object. That was thinner than `min_box_extent_mm`, and the box had no
+    // detection.
+    let v = table_d0_view_of(2026, 48, 21);
+    let b = scene_box(&v, 5, [46.0, 53.0, 100.0], 0.9);
+    assert_found_only_with_rule(
+        &v,
+        &b.mask_visib,
+        &DetectConfig {
+            blob_upright_min_extent_mm: 25.0,
+            ..DetectConfig::default()
+        },
+        0.8,
+        0.1,
+        "with the upright reading's sides at least 25 mm",
+    );
+}
