@@ -457,7 +457,10 @@ fn object_candidates(
 ) -> Vec<Raw> {
     let dbg = log::log_enabled!(log::Level::Debug);
     // Kept for the upright reading below, only where it may be needed.
-    let whole = (cfg.blob_upright_fallback && up.is_some()).then(|| cells.clone());
+    let whole = (cfg.blob_upright_fallback
+        && up.is_some()
+        && cells.len() <= cfg.blob_upright_max_cells as usize)
+        .then(|| cells.clone());
     // Parts are numbered for the log only: every part's cells stay ascending (cuts keep
     // order), and membership is a binary search.
     let mut next = 1u32;
