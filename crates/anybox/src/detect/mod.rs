@@ -902,19 +902,19 @@ pub struct DetectConfig {
     /// face filled no rectangle) is read once more as a box standing on the support: one axis
     /// along the support's up, the others those of the smallest rectangle around its cells
     /// seen along up, each cell on the nearest visible face plane (see
-    /// `blobs::upright_frame`); if its sides are too thin for a box (their foot is cut off at
-    /// the support), its largest face alone. A box 41 × 45 × 156 mm standing 1.6 m away
-    /// (seed 2026's 48-view table view 27) has sides a few cells wide whose smoothed normals
-    /// blur into each other: it fit no cuboid of its own axes and had no detection. Tins,
-    /// balls and bottles are read so too, and nothing here tells a small one from a box (the
-    /// share of normals on a face, or the change of brightness across it, did not): the
-    /// reading, kept when it scores `min_score` like any candidate, is then scored
-    /// `blob_upright_score_factor` times that, below the detector's other candidates. Needs
-    /// a support. Default on (bench, 48 views, seeds 2026 / 7 / 11 / 3 / 5 / 13, mean AP@0.5
-    /// of the 15 rows 0.7022 → 0.7042: tables with 0 / 8 / 32 distractors +0.0035 / +0.0032 /
-    /// +0.0032, pallets +0.0018, shelves −0.0015; with the reading's own score, not scaled
-    /// down, 0.6867: the distractors' tins, scored 0.5–0.9, took the 32 distractors' row to
-    /// 0.665).
+    /// `blobs::upright_frame`); failing that, its largest face alone. A box 41 × 45 × 156 mm
+    /// standing 1.6 m away (seed 2026's 48-view table view 27) has sides a few cells wide
+    /// whose smoothed normals blur into each other: it fit no cuboid of its own axes and had
+    /// no detection. Tins, balls and other small round things are read so too, and nothing
+    /// tried tells a small one from a box (the share of normals on a face, or the change of
+    /// brightness across it, did not): the reading, kept when it scores `min_score` like
+    /// any candidate, is then scored `blob_upright_score_factor` times that, below the
+    /// detector's other candidates. Needs a support. Default on (bench, 48 views, seeds 2026
+    /// / 7 / 11 / 3 / 5 / 13, mean AP@0.5 of the 15 rows 0.7022 → 0.7042: tables with 0 / 8
+    /// / 32 distractors +0.0035 / +0.0032 / +0.0032, pallets +0.0018, shelves −0.0015; with
+    /// the reading's own score, not scaled down, 0.6867: the distractors' tins, scored
+    /// 0.5–0.9, took the 32 distractors' row to 0.665). Costs about 14 ms a frame on the
+    /// bench's tables with 32 distractors, whose tins it reads and the estimator then fits.
     pub blob_upright_fallback: bool,
     /// ... and it may be as thin as this along any axis, mm (in place of `min_box_extent_mm`):
     /// the cells next to the support are cut off the object, and a low box's sides with
