@@ -712,6 +712,7 @@ fn upright_frame(g: &Grid, cells: &[u32], up: &Vector3<f64>, cfg: &DetectConfig)
         axes,
         faces,
         fit: on_plane as f64 / cells.len() as f64,
+        // The share assigned to a face, by position here, not by normal.
         agree: assigned as f64 / cells.len() as f64,
         full,
         // Not judged: the faces are cut by position, and a small box's edge cells tilt.

@@ -13,10 +13,10 @@
 //! their depth against its surface: *on* it, *in front* of it (an occluder) or *behind* it
 //! (the extension is seen through, so the box does not go on there). Going outwards from the
 //! cuboid's end in bins of distance, an occluder first (bins mostly in front), then a run of
-//! bins mostly on the surface, of about the candidate's colour, is taken as the same box
-//! seen past its occluder (see [`DetectConfig::occluded_reach_mm`]). Flush neighbours on a
-//! pallet or a table are coplanar too, but nothing stands in front between them, so they are
-//! never reached; an occluder of the candidate's own colour is not trusted (on a pallet it is
+//! bins mostly on the surface, of about the candidate's colour (or of its colour in shadow), is
+//! taken as the same box seen past its occluder (see [`DetectConfig::occluded_reach_mm`]).
+//! Flush neighbours on a pallet or a table are coplanar too, but nothing stands in front
+//! between them, so they are never reached; an occluder of the candidate's own colour is not trusted (on a pallet it is
 //! a carton of the same product, whose faces line up with the candidate's).
 //!
 //! The paper has no such step: its masks come from SAM.
@@ -319,10 +319,19 @@ fn along(
         .filter(|&&(_, kind, d)| kind == Kind::Front && d < lo)
         .map(|&(i, _, _)| i as u32)
         .collect();
+    // The run may lie in the occluder's shadow: with `occluded_shading`, a darker run's
+    // colour is compared at the near end's brightness (at most 1.6 times its own).
+    let like = |m0: &Vector3<f64>, m1: &Vector3<f64>| {
+        let (b0, b1) = (m0.sum(), m1.sum());
+        if cfg.occluded_shading && b1 > 0.0 && (1.0..=1.6).contains(&(b0 / b1)) {
+            (m0 - m1 * (b0 / b1)).norm() <= cfg.occluded_colour_max
+        } else {
+            (m0 - m1).norm() <= cfg.occluded_colour_max
+        }
+    };
     match (mean(&near_end), mean(&seen), mean(&gap)) {
         (Some(m0), Some(m1), Some(mg))
-            if (m0 - m1).norm() <= cfg.occluded_colour_max
-                && (m0 - mg).norm() > cfg.occluded_colour_max =>
+            if like(&m0, &m1) && (m0 - mg).norm() > cfg.occluded_colour_max =>
         {
             log::debug!(
                 "occluded continuation axis {axis} sign {sign} gap {lo:.0} mm to {hi:.0} mm cells {} absorbed {:?}",
