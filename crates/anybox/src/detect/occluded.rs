@@ -16,8 +16,9 @@
 //! bins mostly on the surface, of about the candidate's colour (or of its colour in shadow), is
 //! taken as the same box seen past its occluder (see [`DetectConfig::occluded_reach_mm`]).
 //! Flush neighbours on a pallet or a table are coplanar too, but nothing stands in front
-//! between them, so they are never reached; an occluder of the candidate's own colour is not trusted (on a pallet it is
-//! a carton of the same product, whose faces line up with the candidate's).
+//! between them, so they are never reached; an occluder of the candidate's own colour is not
+//! trusted (on a pallet it is a carton of the same product, whose faces line up with the
+//! candidate's).
 //!
 //! The paper has no such step: its masks come from SAM.
 
