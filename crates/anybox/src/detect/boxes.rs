@@ -610,6 +610,10 @@ pub(crate) struct Raw {
     pub normal: Vector3<f64>,
 }
 
+/// Whether a face-grouping take-in admits region `r` into face `fi` of the faces given
+/// (`f0`: the face's largest region); see `group_candidates`.
+type Admit<'a> = dyn Fn(&[Vec<usize>], usize, usize, usize) -> bool + 'a;
+
 /// Groups faces into box candidates and scores them. Returns candidates sorted by score.
 /// On colour patches (`colour_level`), with [`DetectConfig::corner_alternatives`], a
 /// three-face merge refused only by a corner contact's short shared edge is scored as well;
@@ -840,20 +844,10 @@ pub(crate) fn group_candidates(
             None
         }
     };
-    // Adds region `r` to face `fi` when the edges still fit after. Whether it was.
-    let take_in = |faces: &mut Vec<Vec<usize>>, fi: usize, r: usize| -> bool {
-        faces[fi].push(r);
-        if edges_fit(faces) {
-            true
-        } else {
-            faces[fi].pop();
-            false
-        }
-    };
-    // Each face also takes in the other regions coplanar with it that it touches (the rest
-    // of a top that print or tape cut in pieces), while the edges still fit. Whether any was.
-    let absorb_strips = |faces: &mut Vec<Vec<usize>>| -> bool {
-        let taken: Vec<usize> = faces.iter().flatten().copied().collect();
+    // One pass over the faces: each takes in the coplanar regions it touches (by at least
+    // `min_contact_cells`) that `admit(faces, fi, f0, r)` lets in (`f0` its largest region),
+    // one at a time while the edges still fit. Whether any was.
+    let take_in_pass = |faces: &mut Vec<Vec<usize>>, admit: &Admit| -> bool {
         let mut added = false;
         for fi in 0..faces.len() {
             let f0 = largest(&faces[fi]);
@@ -861,19 +855,26 @@ pub(crate) fn group_candidates(
                 let Some(r) = across(&faces[fi], p, q) else {
                     continue;
                 };
-                if c >= cfg.min_contact_cells
-                    && !taken.contains(&r)
-                    && !faces[fi].contains(&r)
-                    && coplanar(f0, r)
-                    && strip(r, f0)
-                    && take_in(faces, fi, r)
-                {
-                    added = true;
+                if c >= cfg.min_contact_cells && coplanar(f0, r) && admit(faces, fi, f0, r) {
+                    faces[fi].push(r);
+                    if edges_fit(faces) {
+                        added = true;
+                    } else {
+                        faces[fi].pop();
+                    }
                 }
             }
             faces[fi].sort_unstable();
         }
         added
+    };
+    // Each face also takes in the other regions coplanar with it that it touches (the rest
+    // of a top that print or tape cut in pieces), while the edges still fit. Whether any was.
+    let absorb_strips = |faces: &mut Vec<Vec<usize>>| -> bool {
+        let taken: Vec<usize> = faces.iter().flatten().copied().collect();
+        take_in_pass(faces, &|faces, fi, f0, r| {
+            !taken.contains(&r) && !faces[fi].contains(&r) && strip(r, f0)
+        })
     };
     // Each face also takes in, until none is left, the narrow coplanar regions it touches
     // that run the whole length of each edge it shares with another face of the group
@@ -881,48 +882,29 @@ pub(crate) fn group_candidates(
     // front that tape, print or a grazing view cut into bands parallel to the box's edge.
     // Whether any was.
     let bridge_bands = |faces: &mut Vec<Vec<usize>>| -> bool {
-        let mut added = false;
-        loop {
-            let mut more = false;
-            for fi in 0..faces.len() {
-                let f0 = largest(&faces[fi]);
-                // A band along every edge of this face shared with another face.
-                let band = |r: usize, faces: &[Vec<usize>]| {
-                    faces.iter().enumerate().all(|(gi, gf)| {
-                        if gi == fi {
-                            return true;
-                        }
-                        let Some(e) = regions[f0]
-                            .normal
-                            .cross(&regions[largest(gf)].normal)
-                            .try_normalize(1e-9)
-                        else {
-                            return false;
-                        };
-                        extent_along(r, &e) >= cfg.edge_length_ratio * extent_of(&faces[fi], &e)
-                    })
-                };
-                for (&(p, q), &c) in &contact {
-                    let Some(r) = across(&faces[fi], p, q) else {
-                        continue;
-                    };
-                    if c >= cfg.min_contact_cells
-                        && !faces.iter().any(|f| f.contains(&r))
-                        && coplanar(f0, r)
-                        && narrow(r, f0)
-                        && band(r, faces)
-                        && take_in(faces, fi, r)
-                    {
-                        more = true;
-                    }
+        // A band along every edge of face `fi` shared with another face.
+        let band = |faces: &[Vec<usize>], fi: usize, f0: usize, r: usize| {
+            faces.iter().enumerate().all(|(gi, gf)| {
+                if gi == fi {
+                    return true;
                 }
-                faces[fi].sort_unstable();
-            }
-            if !more {
-                return added;
-            }
+                let Some(e) = regions[f0]
+                    .normal
+                    .cross(&regions[largest(gf)].normal)
+                    .try_normalize(1e-9)
+                else {
+                    return false;
+                };
+                extent_along(r, &e) >= cfg.edge_length_ratio * extent_of(&faces[fi], &e)
+            })
+        };
+        let mut added = false;
+        while take_in_pass(faces, &|faces, fi, f0, r| {
+            !faces.iter().any(|f| f.contains(&r)) && narrow(r, f0) && band(faces, fi, f0, r)
+        }) {
             added = true;
         }
+        added
     };
     let coplanar_join = |ga: &[usize], gb: &[usize], a: usize, b: usize| {
         let (ga, b) = if gb.len() == 1 && gb[0] == b {
