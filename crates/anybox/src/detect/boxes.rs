@@ -64,7 +64,7 @@ pub(crate) fn support_mask(
     g: &Grid,
     surface_labels: &[u32],
     surfaces: &[Region],
-    ransac: Option<Vec<(Region, bool, bool)>>,
+    ransac: Option<Vec<(Region, bool, bool, f64)>>,
     cfg: &DetectConfig,
 ) -> (Vec<bool>, Vec<Region>, Option<Vector3<f64>>) {
     let mut is_support = vec![false; surfaces.len()];
@@ -96,9 +96,10 @@ pub(crate) fn support_mask(
     for (&r, (strong, standing, rim)) in big.iter().zip(tests) {
         cands.push((Some(r), surfaces[r].clone(), strong, standing, rim));
     }
-    // RANSAC planes are not held to the layer test: found by plane alone, they have no rim.
-    for (reg, strong, standing) in ransac {
-        cands.push((None, reg, strong, standing, 0.0));
+    // RANSAC planes take in every coplanar cell of the frame, the tops of a whole layer
+    // and of the stacks beside it, so their share under the rim is held to a lower bar.
+    for (reg, strong, standing, rim) in ransac {
+        cands.push((None, reg, strong, standing, rim));
     }
     // "Up": the normal of the plane that bounds the scene (the floor), picked by
     // `up_from_planes`. Things stand on planes parallel to it (tables, shelf boards); a
@@ -119,7 +120,12 @@ pub(crate) fn support_mask(
     order.sort_by(|&a, &b| cands[b].1.area_mm2.total_cmp(&cands[a].1.area_mm2));
     let mut accept = vec![false; cands.len()];
     for &c in &order {
-        let (_, reg, strong, standing, rim) = &cands[c];
+        let (src, reg, strong, standing, rim) = &cands[c];
+        let layer_min = if src.is_some() {
+            cfg.support_layer_min_fraction
+        } else {
+            cfg.support_layer_ransac_min_fraction
+        };
         let parallel = up.is_none_or(|u| u.dot(&reg.normal).abs() >= cos_up);
         // Asked only where it decides (it scans the accepted candidates).
         let above_support = || {
@@ -134,11 +140,7 @@ pub(crate) fn support_mask(
             })
         };
         // A layer of cartons: its tops over a support, the cartons' bodies under its rim.
-        let layer = || {
-            cfg.support_layer_min_fraction > 0.0
-                && *rim >= cfg.support_layer_min_fraction
-                && above_support()
-        };
+        let layer = || layer_min > 0.0 && *rim >= layer_min && above_support();
         accept[c] = if reg.area_mm2 >= cfg.support_min_area_mm2 {
             *strong || (*standing && parallel && !layer())
         } else {
@@ -345,9 +347,10 @@ fn boundary_distance(poly: &[Point2<f64>], p: &Point2<f64>) -> f64 {
     best
 }
 
-/// Dominant planes by RANSAC over all cells (deterministic), with their support tests: finds
-/// floors and tables that sensor noise or texture cut into many small surfaces.
-pub(crate) fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool)> {
+/// Dominant planes by RANSAC over all cells (deterministic), with their support tests
+/// (bounds the scene, things stand on it, share of its cells under its rim): finds floors
+/// and tables that sensor noise or texture cut into many small surfaces.
+pub(crate) fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool, f64)> {
     let mut pool: Vec<usize> = (0..g.z.len())
         .filter(|&i| g.z[i] > 0.0)
         .step_by(3)
@@ -467,8 +470,10 @@ pub(crate) fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, 
     found
         .into_par_iter()
         .map(|(reg, inl)| {
-            let (strong, standing, _) = support_tests(g, &reg, &inl, cfg);
-            (reg, strong, standing)
+            let (strong, standing, rim) = support_tests(g, &reg, &inl, cfg);
+            // `inl` holds every third cell of the plane (the pool's step): the share under
+            // the rim is of the plane's own cells.
+            (reg, strong, standing, rim / 3.0)
         })
         .collect()
 }
