@@ -351,9 +351,12 @@ fn boundary_distance(poly: &[Point2<f64>], p: &Point2<f64>) -> f64 {
 /// (bounds the scene, things stand on it, share of its cells under its rim): finds floors
 /// and tables that sensor noise or texture cut into many small surfaces.
 pub(crate) fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, bool, f64)> {
+    // The pool holds every `POOL_STEP`-th valid cell: a plane's inliers stand for that many
+    // cells each.
+    const POOL_STEP: usize = 3;
     let mut pool: Vec<usize> = (0..g.z.len())
         .filter(|&i| g.z[i] > 0.0)
-        .step_by(3)
+        .step_by(POOL_STEP)
         .collect();
     let mut found: Vec<(Region, Vec<usize>)> = Vec::new();
     // A fixed seed keeps the detector deterministic.
@@ -423,13 +426,13 @@ pub(crate) fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, 
         if normal.dot(&centroid) > 0.0 {
             normal = -normal;
         }
-        // Pool cells are every third cell: scale the area back.
+        // Scale the area back to all of the plane's cells.
         let area: f64 = inl
             .iter()
             .map(|&i| {
                 let p = v3(&g.p[i]);
                 let cos = p.normalize().dot(&normal).abs().max(0.2);
-                3.0 * p.z * p.z * cell_area / cos
+                POOL_STEP as f64 * p.z * p.z * cell_area / cos
             })
             .sum();
         let reg = Region {
@@ -471,9 +474,8 @@ pub(crate) fn ransac_planes(g: &Grid, cfg: &DetectConfig) -> Vec<(Region, bool, 
         .into_par_iter()
         .map(|(reg, inl)| {
             let (strong, standing, rim) = support_tests(g, &reg, &inl, cfg);
-            // `inl` holds every third cell of the plane (the pool's step): the share under
-            // the rim is of the plane's own cells.
-            (reg, strong, standing, rim / 3.0)
+            // The share under the rim, of all of the plane's cells.
+            (reg, strong, standing, rim / POOL_STEP as f64)
         })
         .collect()
 }
