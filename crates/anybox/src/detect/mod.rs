@@ -793,13 +793,16 @@ pub struct DetectConfig {
     /// faces line up with it). Default 30.
     pub occluded_colour_max: f64,
     /// ... the run's colour compared at the brightness of the candidate's cells next to the
-    /// occluder when the run is darker, by a factor of at most 1.6: it may lie in the
-    /// occluder's shadow (seed 3's 48-view table view 34: a 212 × 52 × 151 mm box behind a
+    /// occluder when the run is darker, by a factor of at most `occluded_shading_max_ratio`:
+    /// it may lie in the occluder's shadow (seed 3's 48-view table view 34: a 212 × 52 × 151 mm box behind a
     /// leaning one, 3D IoU 0.28 → 0.82). Default on (bench, 48 views, seeds 2026 / 7 / 11 /
     /// 3 / 5 / 13, mean AP@0.5 of the 15 rows 0.7060 → 0.7064: tables +0.0003 to +0.0011,
     /// seed 3 +0.0034, seed 11 −0.0006; darker or brighter by up to a factor of two:
     /// 0.7062, seeds 7 and 5 −0.001 and −0.0016).
     pub occluded_shading: bool,
+    /// See `occluded_shading`: the largest brightness ratio (near cells' summed RGB over the
+    /// run's) compared that way. Default 1.6.
+    pub occluded_shading_max_ratio: f64,
     /// Another candidate lying on the run with at least this fraction of its own cells is the
     /// same box's other piece: it joins the candidate (which keeps the higher score). Default
     /// 0.6.
@@ -1133,6 +1136,7 @@ impl Default for DetectConfig {
             occluded_min_cells: 12,
             occluded_colour_max: 30.0,
             occluded_shading: true,
+            occluded_shading_max_ratio: 1.6,
             occluded_absorb_fraction: 0.6,
             blobs: true,
             blob_split_concave: true,

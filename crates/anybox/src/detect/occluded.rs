@@ -321,10 +321,12 @@ fn along(
         .map(|&(i, _, _)| i as u32)
         .collect();
     // The run may lie in the occluder's shadow: with `occluded_shading`, a darker run's
-    // colour is compared at the near end's brightness (at most 1.6 times its own).
+    // colour is compared at the near end's brightness (at most `occluded_shading_max_ratio`
+    // times its own).
     let like = |m0: &Vector3<f64>, m1: &Vector3<f64>| {
         let (b0, b1) = (m0.sum(), m1.sum());
-        if cfg.occluded_shading && b1 > 0.0 && (1.0..=1.6).contains(&(b0 / b1)) {
+        let ratio = 1.0..=cfg.occluded_shading_max_ratio;
+        if cfg.occluded_shading && b1 > 0.0 && ratio.contains(&(b0 / b1)) {
             (m0 - m1 * (b0 / b1)).norm() <= cfg.occluded_colour_max
         } else {
             (m0 - m1).norm() <= cfg.occluded_colour_max
