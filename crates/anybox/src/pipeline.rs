@@ -301,7 +301,7 @@ pub fn estimate_frame(
 /// [`estimate_frame`] where some masks are alternative readings (`alternative[i]`, missing
 /// entries false; e.g. [`crate::detect::Detection::alternative`]): they take hidden extents
 /// from their layer's neighbours but give none, so the other masks' estimates are the same
-/// as without them.
+/// as without them, and they get no second try (`observation.retry_below_score`).
 pub fn estimate_frame_with_alternatives(
     depth: &DepthMap,
     intrinsics: &Intrinsics,
@@ -309,9 +309,17 @@ pub fn estimate_frame_with_alternatives(
     alternative: &[bool],
     cfg: &Config,
 ) -> Vec<Result<BoxEstimate, EstimateError>> {
+    // Alternative readings are not estimated twice (`observation.retry_below_score`): they
+    // are most of a detected frame's masks and score low anyway.
+    let mut no_retry = cfg.clone();
+    no_retry.observation.retry_below_score = 0.0;
     let mut stages: Vec<Result<Stage, EstimateError>> = masks
         .par_iter()
-        .map(|m| stage_one(depth, intrinsics, m, cfg))
+        .enumerate()
+        .map(|(i, m)| {
+            let alt = alternative.get(i).copied().unwrap_or(false);
+            stage_one(depth, intrinsics, m, if alt { &no_retry } else { cfg })
+        })
         .collect();
     let size_is_free = !matches!(cfg.scale.mode, ScaleMode::Canonical | ScaleMode::Oracle(_));
     if cfg.context.enabled && size_is_free {
@@ -1659,6 +1667,26 @@ mod tests {
         // without it.
         let gated = estimate_box(&depth, &k, &leaky, &Config::default()).unwrap();
         assert!(iou(&gated.pose, &gt) > 0.9 && iou(&gated.pose, &gt) > iou(&c.pose, &gt));
+    }
+
+    #[test]
+    fn alternative_readings_get_no_second_try() {
+        let (k, depth, _, _, leaky) = box_with_post_leak();
+        let mut off = Config::default();
+        off.scale.maskfit_gate_abs_mm = 0.0;
+        off.observation.retry_below_score = 0.0;
+        let mut always = off.clone();
+        always.observation.retry_below_score = 1.01;
+        let masks = [leaky];
+        let frame = |alt: bool, cfg: &Config| {
+            estimate_frame_with_alternatives(&depth, &k, &masks, &[alt], cfg)
+                .remove(0)
+                .unwrap()
+        };
+        // A detection is tried twice and its cut mask's estimate kept; an alternative keeps
+        // its first estimate.
+        assert_ne!(frame(false, &always), frame(false, &off));
+        assert_eq!(frame(true, &always), frame(false, &off));
     }
 
     #[test]

@@ -526,10 +526,14 @@ pub struct DetectConfig {
     /// Default 0.3.
     pub min_score: f64,
     /// The estimator's second try on low scores (`observation.retry_below_score`) on detected
-    /// masks ([`crate::config::Config::for_detected_masks`]). Default 0 (off): detections
-    /// include many non-boxes, which score low and would all be estimated twice. Bench, 24
-    /// views, seed 2026, 0.35: AP@0.5 +0.004 to +0.012 per set (pallet none), frame time +5 to
-    /// +9 ms (shelves 99 → 107 ms, past the 100 ms budget); 0.2: shelves +0.009, still +3 ms.
+    /// masks ([`crate::config::Config::for_detected_masks`]); alternative readings never get
+    /// one (`pipeline::estimate_frame_with_alternatives`): they are more than half of a
+    /// frame's masks and score low anyway. Default 0.35 (bench, 48 views, seeds 2026 / 7 / 11 /
+    /// 3 / 5 / 13, mean AP@0.5 of the 15 rows: 0 0.7073, 0.2 0.7089, 0.35 0.7098, 0.5 0.7110;
+    /// at 0.35 pallets 0.7038 → 0.7093, shelves 0.5762 → 0.5822, tables within ±0.002;
+    /// retrying the alternatives too gave the same AP. Frame time, `anybox bench --detect-reps
+    /// 5`, seed 2026, 24 views, 2-core VM: shelves 81.2 → 86.3 ms median at 0.35, 94.4 ms at
+    /// 0.5; ycbv-boxes 46.2 → 56.2 ms).
     pub estimate_retry_below_score: f64,
     /// Alternative readings of split cartons ([`crate::pipeline::tiled_unions`]): two
     /// estimates that tile one cuboid also give that cuboid, scored this factor times the
@@ -1083,7 +1087,7 @@ impl Default for DetectConfig {
             evidence_half_pixels: 2000.0,
             two_face_factor: 0.8,
             min_score: 0.3,
-            estimate_retry_below_score: 0.0,
+            estimate_retry_below_score: 0.35,
             tiled_union_score_factor: 0.3,
             tiled_union_max_angle_deg: 10.0,
             tiled_union_min_fill: 0.83,
