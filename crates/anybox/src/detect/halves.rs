@@ -112,6 +112,8 @@ impl Patches {
     /// off from a clean end (see the module doc). Sets `parent` of each pair's second label to
     /// its first; returns whether anything was paired.
     fn pair_chains(&self, g: &Grid, parent: &mut [usize], cfg: &DetectConfig) -> bool {
+        let end_tilt = (cfg.halves_end_max_tilt_deg > 0.0)
+            .then(|| cfg.halves_end_max_tilt_deg.to_radians().cos());
         let halves: Vec<Half> = self
             .rects
             .iter()
@@ -186,7 +188,7 @@ impl Patches {
                 let inward = (hi.centre - he.centre).dot(&he.across);
                 // `neighbour`'s side index: 1 = along +across.
                 joint[e][usize::from(inward <= 0.0)]
-                    || clean_end(g, he, &(-inward.signum() * he.across), cfg)
+                    || clean_end(g, he, &(-inward.signum() * he.across), end_tilt, cfg)
             };
             let first = end_clean(chain[0], chain[1]);
             let last = end_clean(chain[k - 1], chain[k - 2]);
@@ -254,9 +256,9 @@ impl Patches {
             let (ha, hb) = (seam_frame(&rects[a], &out), seam_frame(&rects[b], &(-out)));
             let ends = |h: &Half, inner: &Vector3<f64>| {
                 let side = h.normal.cross(inner);
-                clean_end(g, h, &-inner, cfg)
-                    && surface_ends(g, h, &side, h.len_mm, inner, h.width_mm, cfg)
-                    && surface_ends(g, h, &-side, h.len_mm, inner, h.width_mm, cfg)
+                clean_end(g, h, &-inner, None, cfg)
+                    && surface_ends(g, h, &side, h.len_mm, inner, h.width_mm, None, cfg)
+                    && surface_ends(g, h, &-side, h.len_mm, inner, h.width_mm, None, cfg)
             };
             let isolated = ends(&ha, &out) && ends(&hb, &-out);
             let joint = cfg.halves_joint_check && joint_seen(g, &ha, &hb);
@@ -523,8 +525,16 @@ fn joint_seen(g: &Grid, a: &Half, b: &Half) -> bool {
 /// Whether the surface beyond half `h`, in direction `out` (in its plane), ends: fewer than a
 /// third of nine points along its outer side, just beyond it, lie on `h`'s plane. Points
 /// outside the frame count for neither; with fewer than five inside, the end is not clean.
-fn clean_end(g: &Grid, h: &Half, out: &Vector3<f64>, cfg: &DetectConfig) -> bool {
-    surface_ends(g, h, out, h.width_mm, &h.long, h.len_mm, cfg)
+/// With `max_tilt_cos`, a point counts as on the plane only where its cell's normal (when
+/// known) is within that cosine of the plane's: see [`DetectConfig::halves_end_max_tilt_deg`].
+fn clean_end(
+    g: &Grid,
+    h: &Half,
+    out: &Vector3<f64>,
+    max_tilt_cos: Option<f64>,
+    cfg: &DetectConfig,
+) -> bool {
+    surface_ends(g, h, out, h.width_mm, &h.long, h.len_mm, max_tilt_cos, cfg)
 }
 
 /// Whether `h`'s plane ends beyond its side facing `out`, where `h` extends `extent_mm` along
@@ -537,6 +547,7 @@ fn surface_ends(
     extent_mm: f64,
     along: &Vector3<f64>,
     side_mm: f64,
+    max_tilt_cos: Option<f64>,
     cfg: &DetectConfig,
 ) -> bool {
     let reach = extent_mm / 2.0 + cfg.halves_gap_mm.max(0.25 * extent_mm);
@@ -554,7 +565,12 @@ fn surface_ends(
         }
         let i = v as usize * g.w + u as usize;
         n += 1;
-        if g.z[i] > 0.0 && (v3(&g.p[i]) - h.centre).dot(&h.normal).abs() <= 3.0 * tol {
+        // A face beyond the edge, seen past it, can lie within the tolerance of the plane
+        // (the front below a top's near edge): it is no continuation of the plane.
+        let nc = v3(&g.n[i]);
+        let parallel =
+            max_tilt_cos.is_none_or(|c| nc.norm_squared() < 0.25 || nc.dot(&h.normal).abs() >= c);
+        if g.z[i] > 0.0 && parallel && (v3(&g.p[i]) - h.centre).dot(&h.normal).abs() <= 3.0 * tol {
             on_plane += 1;
         }
     }
