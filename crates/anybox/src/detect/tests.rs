@@ -935,6 +935,21 @@ fn best_iou_detected(v: &anybox_synth::SynthView, gt: &Mask, cfg: &DetectConfig)
     best_iou_among(&dets, gt)
 }
 
+/// Best mask IoU of each of the boxes `ks` of `v` (sorted extents `sorted_mm`, visible
+/// fraction above `min_visib`: see [`scene_box`]) among one run's detections under `cfg`.
+fn best_ious_of_boxes(
+    v: &anybox_synth::SynthView,
+    ks: &[usize],
+    sorted_mm: [f64; 3],
+    min_visib: f64,
+    cfg: &DetectConfig,
+) -> Vec<f64> {
+    let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
+    ks.iter()
+        .map(|&k| best_iou_among(&dets, &scene_box(v, k, sorted_mm, min_visib).mask_visib))
+        .collect()
+}
+
 /// The visible masks of the boxes of `v` whose extents, sorted, are `sorted_mm` (within 1 mm)
 /// and whose visible fraction is at least `min_visib`: the cartons of one product.
 fn visible_masks_of_size(
@@ -2465,14 +2480,8 @@ fn a_layer_seen_from_above_with_a_carton_on_it_is_no_support() {
     // strips from up there; the surfaces' layer test still held, but RANSAC found the tops
     // as one plane with a thing standing on it, a support, and the cartons vanished with it.
     let v = pallet_view(13, 48, 39);
-    let tops: Vec<&Mask> = [5, 6, 7, 9]
-        .into_iter()
-        .map(|k| &scene_box(&v, k, [182.0, 234.0, 399.0], 0.5).mask_visib)
-        .collect();
-    let found = |cfg: &DetectConfig| -> Vec<f64> {
-        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
-        tops.iter().map(|gt| best_iou_among(&dets, gt)).collect()
-    };
+    let found =
+        |cfg: &DetectConfig| best_ious_of_boxes(&v, &[5, 6, 7, 9], [182.0, 234.0, 399.0], 0.5, cfg);
     let with = found(&DetectConfig::default());
     assert!(
         with.iter().all(|&iou| iou > 0.5),
@@ -2497,14 +2506,8 @@ fn a_layer_of_tops_ends_at_the_front_below_its_near_edge() {
     // top's edge the points lie on its front face, within the plane tolerance of the tops'
     // plane, so the row of halves never ended towards the camera and no half was paired.
     let v = pallet_view(5, 48, 2);
-    let cartons: Vec<&Mask> = [13, 16]
-        .into_iter()
-        .map(|k| &scene_box(&v, k, [253.0, 298.0, 313.0], 0.5).mask_visib)
-        .collect();
-    let found = |cfg: &DetectConfig| -> Vec<f64> {
-        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
-        cartons.iter().map(|gt| best_iou_among(&dets, gt)).collect()
-    };
+    let found =
+        |cfg: &DetectConfig| best_ious_of_boxes(&v, &[13, 16], [253.0, 298.0, 313.0], 0.5, cfg);
     let with = found(&DetectConfig::default());
     assert!(
         with.iter().all(|&iou| iou > 0.55),
