@@ -550,9 +550,9 @@ mod tests {
         };
         let v = generate_view(&sc, 11, 0);
         // The chains of halves end at the front below a top's near edge
-        // (`halves_end_max_tilt_deg`): here that pairs two halves into a top that then merges
-        // with a neighbour (gt 4 of `SEED=2026 ONLY=pallet VIEW=11 detect_dev 24` gains, gt 7
-        // loses). Off here: this test is about the seam cut and the copies.
+        // (`halves_end_max_tilt_deg`): here that pairs two more halves (gt 4 of `SEED=2026
+        // ONLY=pallet VIEW=11 detect_dev 24` gains, gt 7 loses), and the frame then holds a
+        // merged box that a copy's carton beats. Off here: this test is about the seam cut.
         let seam_cut = || {
             let mut c = Config::default();
             c.detect.halves_end_max_tilt_deg = 0.0;

@@ -683,8 +683,8 @@ pub struct DetectConfig {
     /// disables. Default 30 (bench, 48 views, seeds 2026 / 7 / 11 / 3 / 5 / 13, with
     /// `estimate_retry_below_score` 0: mean AP@0.5 of the 15 rows 0.7073 → 0.7083, pallets
     /// 0.7038 → 0.7088, tables within 0.0006, shelves +0.001; 18° and 32° gave the same
-    /// means within 0.0002, 46° pallets 0.7030; the test in the isolated pairs too (32°):
-    /// tables +0.003, pallets 0.6890).
+    /// means within 0.0002, 46° pallets 0.7030; at 32° in both passes, tables +0.003 and
+    /// pallets 0.6968, in the isolated pairs alone pallets 0.6890).
     pub halves_end_max_tilt_deg: f64,
     /// A patch with a band of another colour along the middle of its long axis, over its
     /// whole length, differing from the patch's outer parts by at least this, RGB levels, is
