@@ -929,24 +929,22 @@ fn best_iou_among(dets: &[Detection], gt: &Mask) -> f64 {
     dets.iter().map(|d| d.mask.iou(gt)).fold(0.0, f64::max)
 }
 
-/// Best mask IoU with `gt` among the detections of `v` under `cfg` (alternatives included).
-fn best_iou_detected(v: &anybox_synth::SynthView, gt: &Mask, cfg: &DetectConfig) -> f64 {
+/// Best mask IoU of each of `gts` among one run's detections of `v` under `cfg`
+/// (alternatives included).
+fn best_ious_detected(v: &anybox_synth::SynthView, gts: &[&Mask], cfg: &DetectConfig) -> Vec<f64> {
     let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
-    best_iou_among(&dets, gt)
+    gts.iter().map(|gt| best_iou_among(&dets, gt)).collect()
 }
 
-/// Best mask IoU of each of the boxes `ks` of `v` (sorted extents `sorted_mm`, visible
-/// fraction above `min_visib`: see [`scene_box`]) among one run's detections under `cfg`.
-fn best_ious_of_boxes(
-    v: &anybox_synth::SynthView,
+/// The visible masks of the boxes `ks` of `v` (each checked by [`scene_box`]).
+fn scene_masks<'a>(
+    v: &'a anybox_synth::SynthView,
     ks: &[usize],
     sorted_mm: [f64; 3],
     min_visib: f64,
-    cfg: &DetectConfig,
-) -> Vec<f64> {
-    let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
+) -> Vec<&'a Mask> {
     ks.iter()
-        .map(|&k| best_iou_among(&dets, &scene_box(v, k, sorted_mm, min_visib).mask_visib))
+        .map(|&k| &scene_box(v, k, sorted_mm, min_visib).mask_visib)
         .collect()
 }
 
@@ -1672,15 +1670,28 @@ fn assert_found_only_with_rule(
     lost_below: f64,
     without: &str,
 ) {
-    let found = best_iou_detected(v, gt, &DetectConfig::default());
-    let lost = best_iou_detected(v, gt, off);
+    assert_all_found_only_with_rule(v, &[gt], off, found_above, lost_below, without);
+}
+
+/// [`assert_found_only_with_rule`] for several boxes: every one is found with the defaults,
+/// and every one is lost with `off`.
+fn assert_all_found_only_with_rule(
+    v: &anybox_synth::SynthView,
+    gts: &[&Mask],
+    off: &DetectConfig,
+    found_above: f64,
+    lost_below: f64,
+    without: &str,
+) {
+    let found = best_ious_detected(v, gts, &DetectConfig::default());
+    let lost = best_ious_detected(v, gts, off);
     assert!(
-        found > found_above,
-        "best mask IoU {found:.3} (and {lost:.3} {without})"
+        found.iter().all(|&x| x > found_above),
+        "best mask IoU {found:.3?} (and {lost:.3?} {without})"
     );
     assert!(
-        lost < lost_below,
-        "best mask IoU {lost:.3} {without} (and {found:.3} with the rule)"
+        lost.iter().all(|&x| x < lost_below),
+        "best mask IoU {lost:.3?} {without} (and {found:.3?} with the rule)"
     );
 }
 
@@ -2480,21 +2491,18 @@ fn a_layer_seen_from_above_with_a_carton_on_it_is_no_support() {
     // strips from up there; the surfaces' layer test still held, but RANSAC found the tops
     // as one plane with a thing standing on it, a support, and the cartons vanished with it.
     let v = pallet_view(13, 48, 39);
-    let found =
-        |cfg: &DetectConfig| best_ious_of_boxes(&v, &[5, 6, 7, 9], [182.0, 234.0, 399.0], 0.5, cfg);
-    let with = found(&DetectConfig::default());
-    assert!(
-        with.iter().all(|&iou| iou > 0.5),
-        "mask IoU of the layer's cartons {with:.2?}"
-    );
+    let tops = scene_masks(&v, &[5, 6, 7, 9], [182.0, 234.0, 399.0], 0.5);
     // Premise: with RANSAC planes never read as layers, the layer is a support.
-    let without = found(&DetectConfig {
-        support_layer_ransac_min_fraction: 0.0,
-        ..DetectConfig::default()
-    });
-    assert!(
-        without.iter().all(|&iou| iou < 0.1),
-        "mask IoU without the test {without:.2?}"
+    assert_all_found_only_with_rule(
+        &v,
+        &tops,
+        &DetectConfig {
+            support_layer_ransac_min_fraction: 0.0,
+            ..DetectConfig::default()
+        },
+        0.5,
+        0.1,
+        "without the test",
     );
 }
 
@@ -2506,20 +2514,17 @@ fn a_layer_of_tops_ends_at_the_front_below_its_near_edge() {
     // top's edge the points lie on its front face, within the plane tolerance of the tops'
     // plane, so the row of halves never ended towards the camera and no half was paired.
     let v = pallet_view(5, 48, 2);
-    let found =
-        |cfg: &DetectConfig| best_ious_of_boxes(&v, &[13, 16], [253.0, 298.0, 313.0], 0.5, cfg);
-    let with = found(&DetectConfig::default());
-    assert!(
-        with.iter().all(|&iou| iou > 0.55),
-        "mask IoU of the two cartons {with:.2?}"
-    );
+    let cartons = scene_masks(&v, &[13, 16], [253.0, 298.0, 313.0], 0.5);
     // Premise: with the plain end test (distance to the plane only), each keeps half a top.
-    let without = found(&DetectConfig {
-        halves_end_max_tilt_deg: 0.0,
-        ..DetectConfig::default()
-    });
-    assert!(
-        without.iter().all(|&iou| iou < 0.45),
-        "mask IoU with the plain end test {without:.2?}"
+    assert_all_found_only_with_rule(
+        &v,
+        &cartons,
+        &DetectConfig {
+            halves_end_max_tilt_deg: 0.0,
+            ..DetectConfig::default()
+        },
+        0.55,
+        0.45,
+        "with the plain end test",
     );
 }
