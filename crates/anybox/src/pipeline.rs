@@ -17,7 +17,7 @@
 use anybox_geom::symmetry::{geodesic_deg, signed_permutations};
 use anybox_geom::{Intrinsics, OrientedBox};
 use anybox_io::{DepthMap, Mask};
-use nalgebra::Vector3;
+use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
 use crate::config::Config;
@@ -939,6 +939,133 @@ pub fn hidden_extent_readings(
     out
 }
 
+/// A carton read at the next place of its layer's lattice ([`lattice_readings`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LatticeReading {
+    /// The source's box moved by one of its extents, camera frame, mm.
+    pub pose: OrientedBox,
+    /// [`DetectConfig::lattice_score_factor`](crate::detect::DetectConfig::lattice_score_factor)
+    /// times the source's score.
+    pub score: f64,
+    /// Index of the source in `boxes`.
+    pub source: usize,
+}
+
+/// Cartons at the next places of a layer (`boxes`: pose and score of each estimate from
+/// detected masks): an estimate whose size other estimates of the frame share
+/// (`lattice_min_copies`) is moved by one of its own extents across its face towards the
+/// camera, both ways along both of that face's axes. A moved box is read where the depth
+/// shows its face there (`lattice_min_on_face` of a 7 × 7 grid over it within
+/// `lattice_depth_tol_mm`) and no estimate fills more than `lattice_max_shared` of it; one
+/// reading per place (3D IoU above 0.5 is one place), the best scored. Scored
+/// `lattice_score_factor` times the source's score; 0 disables.
+///
+/// Why: a pallet's layer is a lattice of one carton, and its tops are flush and of one
+/// colour. The detector finds some of them whole and others in pieces or not at all; the
+/// found ones tell where the others are.
+pub fn lattice_readings(
+    boxes: &[(OrientedBox, f64)],
+    depth: &anybox_io::DepthMap,
+    intrinsics: &anybox_geom::Intrinsics,
+    cfg: &crate::detect::DetectConfig,
+) -> Vec<LatticeReading> {
+    let mut out: Vec<LatticeReading> = Vec::new();
+    if cfg.lattice_score_factor <= 0.0 {
+        return out;
+    }
+    let poses: Vec<OrientedBox> = boxes.iter().map(|b| b.0).collect();
+    let counts =
+        crate::repeat::same_size_counts(&poses, cfg.repeat_split_tol, cfg.tiled_union_max_shared);
+    for (source, &(pose, score)) in boxes.iter().enumerate() {
+        if counts[source] < cfg.lattice_min_copies {
+            continue;
+        }
+        // The face towards the camera: the axis nearest the viewing ray.
+        let Some(view) = pose.center_mm.try_normalize(1e-9) else {
+            continue;
+        };
+        let a = (0..3)
+            .max_by(|&x, &y| {
+                let (cx, cy) = (pose.axis(x).dot(&view).abs(), pose.axis(y).dot(&view).abs());
+                cx.total_cmp(&cy)
+            })
+            .unwrap_or(2);
+        for b in (0..3).filter(|&b| b != a) {
+            for sign in [-1.0, 1.0] {
+                let mut moved = pose;
+                moved.center_mm += pose.axis(b) * (sign * pose.size_mm[b]);
+                let fod = face_on_depth(&moved, a, depth, intrinsics, cfg);
+                let vol = moved.volume_mm3();
+                let filled = poses.iter().any(|o| {
+                    anybox_geom::iou::intersection_volume_mm3(&moved, o)
+                        > cfg.lattice_max_shared * vol
+                });
+                if fod < cfg.lattice_min_on_face {
+                    continue;
+                }
+                if filled {
+                    continue;
+                }
+                let s = cfg.lattice_score_factor * score;
+                let same = out.iter_mut().find(|r| {
+                    anybox_geom::iou::iou(&r.pose, &moved, anybox_geom::iou::IouMethod::Exact) > 0.5
+                });
+                match same {
+                    Some(r) if r.score < s => {
+                        *r = LatticeReading {
+                            pose: moved,
+                            score: s,
+                            source,
+                        }
+                    }
+                    Some(_) => {}
+                    None => out.push(LatticeReading {
+                        pose: moved,
+                        score: s,
+                        source,
+                    }),
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Share of a 7 × 7 grid over `b`'s face towards the camera along axis `a` (inset by a tenth
+/// of each side) where the depth lies within `lattice_depth_tol_mm` of the face; points
+/// outside the image or without depth count as misses.
+fn face_on_depth(
+    b: &OrientedBox,
+    a: usize,
+    depth: &anybox_io::DepthMap,
+    k: &anybox_geom::Intrinsics,
+    cfg: &crate::detect::DetectConfig,
+) -> f64 {
+    let mut n = b.axis(a);
+    if n.dot(&b.center_mm) > 0.0 {
+        n = -n;
+    }
+    let (b1, b2) = ((a + 1) % 3, (a + 2) % 3);
+    let (e1, e2) = (b.axis(b1), b.axis(b2));
+    let centre = b.center_mm + n * (0.5 * b.size_mm[a]);
+    let mut hits = 0usize;
+    for i in 0..7u32 {
+        for j in 0..7u32 {
+            let f = |t: u32, side: f64| (f64::from(t) / 6.0 - 0.5) * 0.8 * side;
+            let p = Point3::from(centre + e1 * f(i, b.size_mm[b1]) + e2 * f(j, b.size_mm[b2]));
+            let Some(px) = k.project(&p) else { continue };
+            if px.x < 0.0 || px.y < 0.0 {
+                continue;
+            }
+            let Some(z) = depth.get(px.x.round() as u32, px.y.round() as u32) else {
+                continue;
+            };
+            hits += ((f64::from(z) - p.z).abs() <= cfg.lattice_depth_tol_mm) as usize;
+        }
+    }
+    hits as f64 / 49.0
+}
+
 /// Whether `a` and `b` share more than `tiled_union_max_shared` of the smaller one's volume:
 /// then they are not two boxes side by side, and neither unions nor repeat readings pair them.
 fn overlap_too_large(a: &OrientedBox, b: &OrientedBox, cfg: &crate::detect::DetectConfig) -> bool {
@@ -1037,6 +1164,49 @@ mod tests {
         off.context.stand_on_min_share = 0.0;
         let without = ious(&off);
         assert!(without.iter().all(|&i| i < 0.4), "{without:?}");
+    }
+
+    #[test]
+    fn lattice_readings_put_a_carton_where_its_layer_goes_on() {
+        use anybox_geom::iou::{iou, IouMethod};
+        // A row of three 200 × 150 × 120 mm cartons seen from above, tops 1.2 m away, on a
+        // floor 120 mm below them. The detector found the first two.
+        let k = cam();
+        let size = Vector3::new(200.0, 150.0, 120.0);
+        let row: Vec<OrientedBox> = (0..3)
+            .map(|i| {
+                let c = Vector3::new(-200.0 + 200.0 * f64::from(i), 0.0, 1260.0);
+                OrientedBox::new(Rotation3::identity(), c, size).unwrap()
+            })
+            .collect();
+        let floor = || Plane {
+            n: Vector3::z(),
+            d: 1320.0,
+        };
+        let (depth, _) = render(&row, &[floor()], &k, 640, 480);
+        let cfg = crate::detect::DetectConfig {
+            lattice_score_factor: 0.5,
+            ..Default::default()
+        };
+        let found = [(row[0], 0.8), (row[1], 0.6)];
+        let r = lattice_readings(&found, &depth, &k, &cfg);
+        // Past the row's ends and beside it lies the floor; between the two lies a found one.
+        assert_eq!(r.len(), 1, "{r:?}");
+        assert!(iou(&r[0].pose, &row[2], IouMethod::Exact) > 0.99, "{r:?}");
+        assert_eq!(r[0].source, 1);
+        assert!((r[0].score - 0.3).abs() < 1e-12);
+        // A carton without a copy in the frame, or the readings off: none.
+        assert!(lattice_readings(&found[..1], &depth, &k, &cfg).is_empty());
+        let off = crate::detect::DetectConfig {
+            lattice_score_factor: 0.0,
+            ..Default::default()
+        };
+        assert!(lattice_readings(&found, &depth, &k, &off).is_empty());
+        // A 30 mm lower third carton is no place of this layer.
+        let mut low = row.clone();
+        low[2].center_mm.z += 30.0;
+        let (depth, _) = render(&low, &[floor()], &k, 640, 480);
+        assert!(lattice_readings(&found, &depth, &k, &cfg).is_empty());
     }
 
     #[test]
