@@ -27,7 +27,11 @@
 //! view's colour image (`rgb_<view>.png`) and its depth as grey (`depth_<view>.png`; black: no
 //! depth).
 //! `DETECT_DEBUG=1` prints the detector's `log::debug!` diagnostics (planes, regions, face
-//! pairs, selection) to stderr.
+//! pairs, selection) to stderr. With `EST3D=1` each GT line ends with `gsz` and `gobs`: the
+//! size (mm) and observed-axis count of the estimate from the GT mask. `RUNFRAME=<json>` runs
+//! the bench's frame (`runner::run_detected_frame`, config `<json>`, e.g. `{}`) and prints
+//! each record's kind (detection, union, repeat, unseen-extent or lattice reading), score and
+//! best 3D IoU with a GT box.
 //! A GT box counts when its visible fraction is ≥ 0.5; a detection is a true positive when its
 //! mask IoU with an unmatched such GT is > 0.5 (greedy in score order); detections matching a
 //! GT with lower visibility are ignored (neither TP nor FP).
@@ -1116,8 +1120,48 @@ fn main() {
                         print!(" sup {:.2}", on as f64 / gtm[k].count().max(1) as f64);
                     }
                     println!(
-                        "  3d {name} s{s} gt {k} visib {:.2} size {:.0}x{:.0}x{:.0} mask-iou {miou:.2} iou3d det {d3:.2} gt {:.2} alone det {d1:.2} gt {g1:.2} prec {prec:.2} rec {rec:.2} faces {faces}",
-                        b.visib_fract, b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z, i3(&est_g[k])
+                        "  3d {name} s{s} gt {k} visib {:.2} size {:.0}x{:.0}x{:.0} mask-iou {miou:.2} iou3d det {d3:.2} gt {:.2} alone det {d1:.2} gt {g1:.2} prec {prec:.2} rec {rec:.2} faces {faces} gsz {} gobs {}",
+                        b.visib_fract, b.pose.size_mm.x, b.pose.size_mm.y, b.pose.size_mm.z, i3(&est_g[k]),
+                        est_g[k].as_ref().map_or("-".into(), |e| format!("{:.0}x{:.0}x{:.0}", e.pose.size_mm.x, e.pose.size_mm.y, e.pose.size_mm.z)),
+                        est_g[k].as_ref().map_or(0, |e| e.observed_axes.iter().filter(|o| **o).count())
+                    );
+                }
+            }
+            if let Ok(j) = std::env::var("RUNFRAME") {
+                // The bench's frame (`runner::run_detected_frame`) with config `j`: each
+                // record's kind, score and best 3D IoU with a GT box.
+                use anybox::geom::iou::{iou, IouMethod};
+                let c: anybox::config::Config = serde_json::from_str(&j).unwrap_or_default();
+                let out =
+                    anybox::runner::run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &c)
+                        .expect("frame");
+                for r in &out.estimates {
+                    let Ok(p) = r.pose() else { continue };
+                    let (mut bi, mut bk) = (0.0, 0);
+                    for (k, b) in v.boxes.iter().enumerate() {
+                        let i = iou(&p, &b.pose, IouMethod::Exact);
+                        if i > bi {
+                            (bi, bk) = (i, k);
+                        }
+                    }
+                    let kind = [
+                        "lattice_of",
+                        "hidden_of",
+                        "parts",
+                        "split_of",
+                        "extended_from",
+                    ]
+                    .iter()
+                    .find(|k| r.extra.contains_key(**k))
+                    .copied()
+                    .unwrap_or(if r.extra.contains_key("alternative") {
+                        "alt"
+                    } else {
+                        "det"
+                    });
+                    println!(
+                        "  rec {name} s{s} {kind} score {:.3} best {bi:.2} gt {bk} vis {:.2} size {:.0}x{:.0}x{:.0}",
+                        r.score, v.boxes[bk].visib_fract, p.size_mm.x, p.size_mm.y, p.size_mm.z
                     );
                 }
             }
