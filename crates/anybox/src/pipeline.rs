@@ -994,15 +994,17 @@ pub fn lattice_readings(
             for sign in [-1.0, 1.0] {
                 let mut moved = pose;
                 moved.center_mm += pose.axis(b) * (sign * pose.size_mm[b]);
-                let fod = face_on_depth(&moved, a, depth, intrinsics, cfg);
-                let vol = moved.volume_mm3();
-                let filled = poses.iter().any(|o| {
-                    anybox_geom::iou::intersection_volume_mm3(&moved, o)
-                        > cfg.lattice_max_shared * vol
-                });
-                if fod < cfg.lattice_min_on_face {
+                if face_on_depth(&moved, a, depth, intrinsics, cfg) < cfg.lattice_min_on_face {
                     continue;
                 }
+                let vol = moved.volume_mm3();
+                // Boxes whose bounding spheres are apart share nothing: skip the clipping.
+                let reach = 0.5 * moved.diagonal_mm();
+                let filled = poses.iter().any(|o| {
+                    (o.center_mm - moved.center_mm).norm() < reach + 0.5 * o.diagonal_mm()
+                        && anybox_geom::iou::intersection_volume_mm3(&moved, o)
+                            > cfg.lattice_max_shared * vol
+                });
                 if filled {
                     continue;
                 }

@@ -535,9 +535,15 @@ mod tests {
             .estimates
             .iter()
             .filter(|r| {
-                !["parts", "split_of", "extended_from", "hidden_of", "lattice_of"]
-                    .iter()
-                    .any(|k| r.extra.contains_key(*k))
+                ![
+                    "parts",
+                    "split_of",
+                    "extended_from",
+                    "hidden_of",
+                    "lattice_of",
+                ]
+                .iter()
+                .any(|k| r.extra.contains_key(*k))
             })
             .filter(|r| r.extra.get("alternative").is_some())
             .collect();
@@ -592,7 +598,10 @@ mod tests {
                 }
             }
         }
-        assert!(found_missed >= 1, "no lattice reading finds a missed carton");
+        assert!(
+            found_missed >= 1,
+            "no lattice reading finds a missed carton"
+        );
         let mut off = config.clone();
         off.detect.lattice_score_factor = 0.0;
         let out0 = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &off).unwrap();
