@@ -1135,16 +1135,7 @@ mod tests {
     #[test]
     fn a_top_layer_carton_stands_on_the_cartons_below() {
         use anybox_geom::iou::{iou, IouMethod};
-        use anybox_synth::{generate_view, Layout, NoiseModel, SynthConfig};
-        let sc = SynthConfig {
-            layout: Layout::Pallet,
-            scenes: 48,
-            views: 1,
-            seed: 5,
-            noise: NoiseModel::Realistic,
-            ..SynthConfig::default()
-        };
-        let v = generate_view(&sc, 18, 0);
+        let v = crate::detect::tests::pallet_view(5, 48, 18);
         let masks: Vec<Mask> = v.boxes.iter().map(|b| b.mask_visib.clone()).collect();
         let tops: Vec<usize> = (0..v.boxes.len())
             .filter(|&k| v.boxes[k].visib_fract >= 0.5)

@@ -239,15 +239,14 @@ pub fn run_detected_frame(
             Some((pose, rec.score, observed_axes(rec)?))
         })
         .collect();
+    // A reading of one detection (`source`, an index into `idx`), named by `key`.
+    let reading = |pose: &anybox_geom::OrientedBox, score: f64, source: usize, key: &str| {
+        let name = out.estimates[idx[source]].extra.get("mask").cloned();
+        alternative_record(pose, score, time, [(key, serde_json::json!(name))])
+    };
     let min_mm = config.context.min_hidden_mm;
     for h in crate::pipeline::hidden_extent_readings(&inferred, min_mm, &config.detect) {
-        let source = out.estimates[idx[h.source]].extra.get("mask").cloned();
-        alts.push(alternative_record(
-            &h.pose,
-            h.score,
-            time,
-            [("hidden_of", serde_json::json!(source))],
-        ));
+        alts.push(reading(&h.pose, h.score, h.source, "hidden_of"));
     }
     // Cartons at the next places of a layer, from the final scores.
     let placed: Vec<(anybox_geom::OrientedBox, f64)> = idx
@@ -256,13 +255,7 @@ pub fn run_detected_frame(
         .map(|(&i, &(pose, _))| (pose, out.estimates[i].score))
         .collect();
     for l in crate::pipeline::lattice_readings(&placed, depth, intrinsics, &config.detect) {
-        let source = out.estimates[idx[l.source]].extra.get("mask").cloned();
-        alts.push(alternative_record(
-            &l.pose,
-            l.score,
-            time,
-            [("lattice_of", serde_json::json!(source))],
-        ));
+        alts.push(reading(&l.pose, l.score, l.source, "lattice_of"));
     }
     out.estimates.extend(alts);
     Ok(out)
@@ -559,16 +552,7 @@ mod tests {
     /// a carton where a missed one stands, flagged and scored below their sources.
     #[test]
     fn detected_frame_reads_a_missed_carton_from_its_layer() {
-        use anybox_synth::{generate_view, Layout, NoiseModel, SynthConfig};
-        let sc = SynthConfig {
-            layout: Layout::Pallet,
-            scenes: 48,
-            views: 1,
-            seed: 13,
-            noise: NoiseModel::Realistic,
-            ..SynthConfig::default()
-        };
-        let v = generate_view(&sc, 20, 0);
+        let v = crate::detect::tests::pallet_view(13, 48, 20);
         let config = Config::default();
         let out = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &config)
             .expect("a valid frame");

@@ -1081,8 +1081,9 @@ fn background_seen_through_a_frame_gives_no_detection() {
     assert!(!premise.is_empty(), "premise");
 }
 
-/// View 0 of scene `scene` of a generated pallet dataset (realistic noise).
-fn pallet_view(seed: u64, scenes: u32, scene: u32) -> anybox_synth::SynthView {
+/// View 0 of scene `scene` of a generated pallet dataset (realistic noise), as `detect_dev`
+/// draws it (`SEED=seed ONLY=pallet VIEW=scene detect_dev <scenes>`).
+pub(crate) fn pallet_view(seed: u64, scenes: u32, scene: u32) -> anybox_synth::SynthView {
     let sc = SynthConfig {
         layout: Layout::Pallet,
         scenes,
