@@ -34,8 +34,8 @@
 //!    too: a top at a stack's edge finds the floor past the edge, not the layer below it
 //!    ([`ContextConfig::layer_before_support`]), or, where none saw it, to the nearer
 //!    supports the layer's boxes found ([`ContextConfig::layer_nearer_support`]). Last, a
-//!    guessed extent along down stops
-//!    at the top of another estimate right below the box ([`ContextConfig::stand_on_min_share`]).
+//!    guessed extent along down stops at the top of another estimate right below the box
+//!    ([`ContextConfig::stand_on_min_share`]).
 //! 4. **Fallback**: the smaller of the two observed extents (cartons are rarely deeper than both
 //!    their visible sides).
 //!
