@@ -998,12 +998,9 @@ pub fn lattice_readings(
                     continue;
                 }
                 let vol = moved.volume_mm3();
-                // Boxes whose bounding spheres are apart share nothing: skip the clipping.
-                let reach = 0.5 * moved.diagonal_mm();
                 let filled = poses.iter().any(|o| {
-                    (o.center_mm - moved.center_mm).norm() < reach + 0.5 * o.diagonal_mm()
-                        && anybox_geom::iou::intersection_volume_mm3(&moved, o)
-                            > cfg.lattice_max_shared * vol
+                    anybox_geom::iou::intersection_volume_mm3(&moved, o)
+                        > cfg.lattice_max_shared * vol
                 });
                 if filled {
                     continue;
