@@ -10,7 +10,8 @@
 //! configuration as a partial `Config`, e.g. `{"scale":{"measured_start":false}}`), `CSV=<path>`
 //! (one row per estimate: set, frame, score, detector score, estimator score, faces,
 //! kind (0 detection, 1 the detector's alternative, 2 union of two detections, 3 and 4 a
-//! repeat reading's split and extension, 5 a reading of an unseen extent), mask pixels, depth
+//! repeat reading's split and extension, 5 a reading of an unseen extent, 6 a lattice
+//! reading), mask pixels, depth
 //! penalty, observed axes, best 3D
 //! IoU with a counted ground truth and with an ignored one, that ground truth's index, sizes
 //! (mm, sorted), the largest share of its volume inside a higher-scored estimate of the
@@ -19,7 +20,8 @@
 //! truth overlapped by IoU > 0.3 as `k:iou` (`i` before ignored ones)).
 //! The estimates are those of `anybox bench`'s detection rows (`runner::run_detected_frame`):
 //! the detections and their alternative readings (`pipeline::alternative_readings`: the
-//! unions and the repeat readings; `pipeline::hidden_extent_readings`).
+//! unions and the repeat readings; `pipeline::hidden_extent_readings`;
+//! `pipeline::lattice_readings`).
 
 use anybox::bench::detection_sets;
 use anybox::config::Config;
@@ -83,8 +85,8 @@ fn main() {
             );
             // Rows: (pose, score, detector score, estimator score, faces, kind, mask pixels,
             // depth penalty, observed axes). Kind: 0 detection, 1 the detector's alternative,
-            // 2 union, 3 repeat split, 4 repeat extension, 5 a reading of an unseen extent (as
-            // `runner::run_detected_frame`).
+            // 2 union, 3 repeat split, 4 repeat extension, 5 a reading of an unseen extent, 6 a
+            // lattice reading (as `runner::run_detected_frame`).
             type Row = (OrientedBox, f64, f64, f64, char, u8, usize, f64, usize);
             let mut rows: Vec<Row> = Vec::new();
             // Observed axes per row (for the readings of an unseen extent).
@@ -157,6 +159,24 @@ fn main() {
             let min_mm = est_cfg.context.min_hidden_mm;
             for h in pipeline::hidden_extent_readings(&inferred, min_mm, &cfg.detect) {
                 rows.push((h.pose, h.score, f64::NAN, f64::NAN, '?', 5, 0, f64::NAN, 2));
+            }
+            // Lattice readings, from the final scores (as the runner does); they keep their
+            // source's observed axes.
+            let placed: Vec<(OrientedBox, f64)> =
+                primary.iter().map(|&i| (rows[i].0, rows[i].1)).collect();
+            for l in pipeline::lattice_readings(&placed, &f.depth, &f.intrinsics, &cfg.detect) {
+                let obs = rows[primary[l.source]].8;
+                rows.push((
+                    l.pose,
+                    l.score,
+                    f64::NAN,
+                    f64::NAN,
+                    '?',
+                    6,
+                    0,
+                    f64::NAN,
+                    obs,
+                ));
             }
             // Interpenetration with the frame's other estimates: the largest share of this
             // one's volume inside a higher-scored one, and how many others lie at least 60 %
