@@ -805,9 +805,16 @@ pub(crate) fn group_candidates(
             && (rb.centroid - rx.centroid).dot(&rx.normal).abs() <= tol
             && (rx.centroid - rb.centroid).dot(&rb.normal).abs() <= tol
     };
+    // Band `x` lies on the plane of the wider region `r`: a band's own normal, fitted across
+    // a few cells, is too loose to test `r` against.
+    let on_plane_of = |x: usize, r: usize| {
+        let (rx, rr) = (&regions[x], &regions[r]);
+        rx.normal.dot(&rr.normal) >= cos_par
+            && (rx.centroid - rr.centroid).dot(&rr.normal).abs() <= plane_tol(cfg, rx.centroid.z)
+    };
     // Region `r` is no wider than a tape along one of eight directions in face region `f`'s
     // plane (22.5° apart).
-    let narrow = |r: usize, f: usize| {
+    let narrow_face = |rs: &[usize], f: usize| {
         let rf = &regions[f];
         let u = rf
             .normal
@@ -817,9 +824,10 @@ pub(crate) fn group_candidates(
         let v = rf.normal.cross(&u);
         (0..8).any(|k| {
             let t = k as f64 * std::f64::consts::PI / 8.0;
-            extent_along(r, &(u * t.cos() + v * t.sin())) <= cfg.tape_max_width_mm
+            extent_of(rs, &(u * t.cos() + v * t.sin())) <= cfg.tape_max_width_mm
         })
     };
+    let narrow = |r: usize, f: usize| narrow_face(&[r], f);
     // Region `r` is a strip of face region `f`: narrow, and at most half its size.
     let strip = |r: usize, f: usize| 2 * regions[r].n <= regions[f].n && narrow(r, f);
     // The largest region of a face of several (whose normal is the face's).
@@ -910,6 +918,56 @@ pub(crate) fn group_candidates(
             !faces.iter().any(|f| f.contains(&r)) && narrow(r, f0) && band(faces, fi, f0, r)
         }) {
             added = true;
+        }
+        added
+    };
+    // A face that is only a band (no wider than `tape_max_width_mm` across, over all its
+    // regions) takes in the wider coplanar region it touches most, while the edges still fit:
+    // the rest of a front cut off below a band along its top edge. Whether any face did.
+    let grow_bands = |faces: &mut Vec<Vec<usize>>| -> bool {
+        // The region band face `fi` of `faces` would take in.
+        let wider = |faces: &[Vec<usize>], fi: usize| -> Option<usize> {
+            let f0 = largest(&faces[fi]);
+            if !narrow_face(&faces[fi], f0) {
+                return None;
+            }
+            contact
+                .iter()
+                .filter(|(_, &c)| c >= cfg.min_contact_cells)
+                .filter_map(|(&(p, q), &c)| across(&faces[fi], p, q).map(|r| (r, c)))
+                .filter(|&(r, _)| {
+                    !faces.iter().any(|f| f.contains(&r)) && on_plane_of(f0, r) && !narrow(r, f0)
+                })
+                .max_by_key(|&(r, c)| (c, std::cmp::Reverse(r)))
+                .map(|(r, _)| r)
+        };
+        // Every band face at once first: a line printed round a carton cuts its front and its
+        // side alike, and grown one at a time neither would fit the other.
+        let mut all = faces.clone();
+        for fi in 0..faces.len() {
+            if let Some(r) = wider(faces, fi) {
+                if !all.iter().any(|f| f.contains(&r)) {
+                    log::debug!("band face {:?} grows by {r}({})", faces[fi], regions[r].n);
+                    all[fi].push(r);
+                    all[fi].sort_unstable();
+                }
+            }
+        }
+        if all != *faces && edges_fit(&all) {
+            *faces = all;
+            return true;
+        }
+        let mut added = false;
+        for fi in 0..faces.len() {
+            if let Some(r) = wider(faces, fi) {
+                faces[fi].push(r);
+                if edges_fit(faces) {
+                    faces[fi].sort_unstable();
+                    added = true;
+                } else {
+                    faces[fi].pop();
+                }
+            }
         }
         added
     };
@@ -1029,7 +1087,7 @@ pub(crate) fn group_candidates(
             }
         }
     }
-    let groups: Vec<Vec<Vec<usize>>> = members
+    let mut groups: Vec<Vec<Vec<usize>>> = members
         .iter()
         .enumerate()
         .filter(|&(gi, mem)| {
@@ -1045,10 +1103,38 @@ pub(crate) fn group_candidates(
                 .filter(|mem| mem.iter().flatten().all(|&f| face[f])),
         )
         .collect();
+    // A group with a face that is only a band, and that band continues on its plane into a
+    // wider region past a line that is no edge of the box, is read again with that region
+    // taken in; the band reading is then scored down (`band_open_factor`).
+    let mut open = vec![false; groups.len()];
+    if strip_alternatives && cfg.band_face_alternatives {
+        for gi in 0..groups.len() {
+            if groups[gi].len() < 2 {
+                continue;
+            }
+            let mut faces = groups[gi].clone();
+            absorb_strips(&mut faces);
+            if grow_bands(&mut faces) {
+                open[gi] = true;
+                faces.sort_unstable();
+                if !groups.contains(&faces) {
+                    groups.push(faces);
+                    open.push(false);
+                }
+            }
+        }
+    }
     // Groups are scored independently: in parallel (the order is kept).
     let mut out: Vec<Raw> = groups
         .into_par_iter()
-        .filter_map(|mem| score_group(g, labels, regions, on_support, &cells, &mem, cfg))
+        .zip(open)
+        .filter_map(|(mem, open)| {
+            let mut raw = score_group(g, labels, regions, on_support, &cells, &mem, cfg)?;
+            if open {
+                raw.score *= cfg.band_open_factor;
+            }
+            Some(raw)
+        })
         .collect();
     out.sort_by(|a, b| b.score.total_cmp(&a.score));
     out
