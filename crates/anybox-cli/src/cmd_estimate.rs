@@ -53,7 +53,7 @@ pub struct EstimateArgs {
     #[arg(long, value_name = "PNG")]
     pub overlay: Option<PathBuf>,
     /// Estimator configuration: a JSON file of anybox::config::Config's fields (missing =
-    /// defaults).
+    /// defaults; an unknown field is an error).
     #[arg(long, value_name = "JSON")]
     pub config: Option<PathBuf>,
 }

@@ -16,6 +16,8 @@
 //!
 //! Serde: a config round-trips through JSON; missing fields take their defaults, so a JSON file
 //! passed from the CLI need only name what it changes, e.g. `{"scale": {"mode": "point-fit"}}`.
+//! An unknown field is an error that names it, at every level: a misspelt key would otherwise
+//! leave its parameter at the default without a word.
 //! Results are deterministic for a given `seed` and input.
 
 use serde::{Deserialize, Serialize};
@@ -27,7 +29,7 @@ use crate::scale::{ScaleConfig, ScaleMode};
 
 /// All estimator parameters.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct Config {
     /// Masked depth → 3D points (SPEC §1 "pose hypotheses", input side).
     pub observation: ObservationConfig,
@@ -104,7 +106,8 @@ impl Config {
         self
     }
 
-    /// Parses a (possibly partial) JSON config; missing fields take their defaults.
+    /// Parses a (possibly partial) JSON config; missing fields take their defaults, unknown
+    /// ones are an error.
     pub fn from_json(text: &str) -> Result<Self, serde_json::Error> {
         serde_json::from_str(text)
     }
@@ -132,6 +135,21 @@ mod tests {
         let o = Config::from_json(r#"{"scale": {"mode": {"oracle": [1, 2, 3]}}}"#).unwrap();
         assert_eq!(o.scale.mode, ScaleMode::Oracle([1.0, 2.0, 3.0]));
         assert!(Config::from_json(r#"{"scale": {"mode": "nonsense"}}"#).is_err());
+    }
+
+    #[test]
+    fn unknown_fields_are_errors_that_name_them() {
+        for (json, name) in [
+            (r#"{"detec": {}}"#, "detec"),
+            (r#"{"detect": {"band_open_facto": 0.5}}"#, "band_open_facto"),
+            (r#"{"scale": {"tau": 5}}"#, "tau"),
+            (r#"{"pose": {"depth_filter": {"enable": false}}}"#, "enable"),
+        ] {
+            let err = Config::from_json(json).expect_err(json).to_string();
+            assert!(err.contains(name), "{json}: {err}");
+        }
+        // Every field of the default config is known.
+        assert!(Config::from_json(&Config::default().to_json()).is_ok());
     }
 
     #[test]

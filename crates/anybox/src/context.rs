@@ -55,7 +55,7 @@ use serde::{Deserialize, Serialize};
 
 /// Parameters of the hidden-dimension inference.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct ContextConfig {
     /// Infer hidden dimensions from context at all (off = keep whatever the scale search gave,
     /// as the paper does).

@@ -29,7 +29,7 @@ use rand_chacha::ChaCha8Rng;
 
 /// Parameters of the depth-consistency filter (paper defaults).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct DepthFilterConfig {
     /// Apply the filter when re-ranking hypotheses. `false` = the paper's "no depth filter"
     /// ablation (the penalty is still reported but does not influence the ranking or the score).

@@ -31,7 +31,7 @@ use crate::order_stats::rank_pair;
 
 /// Parameters of hypothesis generation.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct HypothesisConfig {
     /// Normals within this angle belong to the same face cluster, degrees. Default 15.
     pub cluster_angle_deg: f64,

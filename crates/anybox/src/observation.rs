@@ -40,7 +40,7 @@ use crate::hypotheses::{FrameSet, HypothesisConfig};
 
 /// Parameters of [`observe`].
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct ObservationConfig {
     /// Minimum number of usable 3D points; fewer gives [`EstimateError::TooFewPoints`]. Default 30
     /// (a box face needs a few dozen points for a stable plane and normal).

@@ -62,7 +62,7 @@ pub enum CoarseScore {
 
 /// Parameters of [`estimate_pose`].
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct PoseConfig {
     /// Hypothesis generation.
     pub hypotheses: HypothesisConfig,

@@ -18,7 +18,7 @@ use nalgebra::{Matrix6, Point3, Rotation3, Vector3, Vector6};
 
 /// Parameters of the ICP refinement.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct RefineConfig {
     /// Maximum Gauss–Newton iterations. Default 10.
     pub max_iterations: usize,

@@ -62,7 +62,7 @@ pub enum ScaleMode {
 
 /// Parameters of the scale search.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct ScaleConfig {
     /// Which algorithm; default [`ScaleMode::PointFit`] (anybox's best measured);
     /// [`ScaleMode::EarlyStopping`] is the paper's (§3, Algorithm 2), see `Config::paper()`.

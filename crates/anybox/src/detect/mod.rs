@@ -66,7 +66,7 @@ use serde::{Deserialize, Serialize};
 /// (`anybox_synth`, realistic noise) at 640×480; lengths in mm, angles in degrees, colour
 /// differences in 8-bit RGB levels (Euclidean over the three channels).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct DetectConfig {
     /// Original pixels per grid cell side (1..=8). Default 2: 640×480 → 320×240 cells.
     pub grid_step_px: u32,
