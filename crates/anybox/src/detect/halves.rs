@@ -188,7 +188,14 @@ impl Patches {
                 let inward = (hi.centre - he.centre).dot(&he.across);
                 // `neighbour`'s side index: 1 = along +across.
                 joint[e][usize::from(inward <= 0.0)]
-                    || clean_end(g, he, &(-inward.signum() * he.across), end_tilt, cfg)
+                    || clean_end(
+                        g,
+                        he,
+                        &(-inward.signum() * he.across),
+                        end_tilt,
+                        cfg.halves_end_max_on_plane,
+                        cfg,
+                    )
             };
             let first = end_clean(chain[0], chain[1]);
             let last = end_clean(chain[k - 1], chain[k - 2]);
@@ -256,9 +263,29 @@ impl Patches {
             let (ha, hb) = (seam_frame(&rects[a], &out), seam_frame(&rects[b], &(-out)));
             let ends = |h: &Half, inner: &Vector3<f64>| {
                 let side = h.normal.cross(inner);
-                clean_end(g, h, &-inner, None, cfg)
-                    && surface_ends(g, h, &side, h.len_mm, inner, h.width_mm, None, cfg)
-                    && surface_ends(g, h, &-side, h.len_mm, inner, h.width_mm, None, cfg)
+                clean_end(g, h, &-inner, None, PLAIN_ON_PLANE, cfg)
+                    && surface_ends(
+                        g,
+                        h,
+                        &side,
+                        h.len_mm,
+                        inner,
+                        h.width_mm,
+                        None,
+                        PLAIN_ON_PLANE,
+                        cfg,
+                    )
+                    && surface_ends(
+                        g,
+                        h,
+                        &-side,
+                        h.len_mm,
+                        inner,
+                        h.width_mm,
+                        None,
+                        PLAIN_ON_PLANE,
+                        cfg,
+                    )
             };
             let isolated = ends(&ha, &out) && ends(&hb, &-out);
             let joint = cfg.halves_joint_check && joint_seen(g, &ha, &hb);
@@ -522,19 +549,35 @@ fn joint_seen(g: &Grid, a: &Half, b: &Half) -> bool {
     count[0][0] >= 4 && frac(count[0]) >= 0.3 && frac(count[0]) >= 2.0 * frac(count[1])
 }
 
-/// Whether the surface beyond half `h`, in direction `out` (in its plane), ends: fewer than a
-/// third of nine points along its outer side, just beyond it, lie on `h`'s plane. Points
-/// outside the frame count for neither; with fewer than five inside, the end is not clean.
-/// With `max_tilt_cos`, a point counts as on the plane only where its cell's normal (when
-/// known) is within that cosine of the plane's: see [`DetectConfig::halves_end_max_tilt_deg`].
+/// The share of the points past a side that may lie on the plane where the plane ends
+/// there, outside chain ends (see [`DetectConfig::halves_end_max_on_plane`]).
+const PLAIN_ON_PLANE: f64 = 1.0 / 3.0;
+
+/// Whether the surface beyond half `h`, in direction `out` (in its plane), ends: fewer than
+/// `max_on_plane` of nine points along its outer side, just beyond it, lie on `h`'s plane.
+/// Points outside the frame count for neither; with fewer than five inside, the end is not
+/// clean. With `max_tilt_cos`, a point counts as on the plane only where its cell's normal
+/// (when known) is within that cosine of the plane's: see
+/// [`DetectConfig::halves_end_max_tilt_deg`].
 fn clean_end(
     g: &Grid,
     h: &Half,
     out: &Vector3<f64>,
     max_tilt_cos: Option<f64>,
+    max_on_plane: f64,
     cfg: &DetectConfig,
 ) -> bool {
-    surface_ends(g, h, out, h.width_mm, &h.long, h.len_mm, max_tilt_cos, cfg)
+    surface_ends(
+        g,
+        h,
+        out,
+        h.width_mm,
+        &h.long,
+        h.len_mm,
+        max_tilt_cos,
+        max_on_plane,
+        cfg,
+    )
 }
 
 /// Whether `h`'s plane ends beyond its side facing `out`, where `h` extends `extent_mm` along
@@ -548,6 +591,7 @@ fn surface_ends(
     along: &Vector3<f64>,
     side_mm: f64,
     max_tilt_cos: Option<f64>,
+    max_on_plane: f64,
     cfg: &DetectConfig,
 ) -> bool {
     let reach = extent_mm / 2.0 + cfg.halves_gap_mm.max(0.25 * extent_mm);
@@ -574,5 +618,5 @@ fn surface_ends(
             on_plane += 1;
         }
     }
-    n >= 5 && on_plane * 3 < n
+    n >= 5 && (on_plane as f64) < max_on_plane * n as f64
 }
