@@ -263,29 +263,13 @@ impl Patches {
             let (ha, hb) = (seam_frame(&rects[a], &out), seam_frame(&rects[b], &(-out)));
             let ends = |h: &Half, inner: &Vector3<f64>| {
                 let side = h.normal.cross(inner);
+                let side_ends = |out: &Vector3<f64>| {
+                    let (len, width) = (h.len_mm, h.width_mm);
+                    surface_ends(g, h, out, len, inner, width, None, PLAIN_ON_PLANE, cfg)
+                };
                 clean_end(g, h, &-inner, None, PLAIN_ON_PLANE, cfg)
-                    && surface_ends(
-                        g,
-                        h,
-                        &side,
-                        h.len_mm,
-                        inner,
-                        h.width_mm,
-                        None,
-                        PLAIN_ON_PLANE,
-                        cfg,
-                    )
-                    && surface_ends(
-                        g,
-                        h,
-                        &-side,
-                        h.len_mm,
-                        inner,
-                        h.width_mm,
-                        None,
-                        PLAIN_ON_PLANE,
-                        cfg,
-                    )
+                    && side_ends(&side)
+                    && side_ends(&-side)
             };
             let isolated = ends(&ha, &out) && ends(&hb, &-out);
             let joint = cfg.halves_joint_check && joint_seen(g, &ha, &hb);
