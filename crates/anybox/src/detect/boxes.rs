@@ -812,9 +812,9 @@ pub(crate) fn group_candidates(
         rx.normal.dot(&rr.normal) >= cos_par
             && (rx.centroid - rr.centroid).dot(&rr.normal).abs() <= plane_tol(cfg, rx.centroid.z)
     };
-    // Region `r` is no wider than a tape along one of eight directions in face region `f`'s
-    // plane (22.5° apart).
-    let narrow_face = |rs: &[usize], f: usize| {
+    // Regions `rs` together are no wider than `width_mm` along one of eight directions in
+    // face region `f`'s plane (22.5° apart).
+    let narrow_within = |rs: &[usize], f: usize, width_mm: f64| {
         let rf = &regions[f];
         let u = rf
             .normal
@@ -824,10 +824,11 @@ pub(crate) fn group_candidates(
         let v = rf.normal.cross(&u);
         (0..8).any(|k| {
             let t = k as f64 * std::f64::consts::PI / 8.0;
-            extent_of(rs, &(u * t.cos() + v * t.sin())) <= cfg.tape_max_width_mm
+            extent_of(rs, &(u * t.cos() + v * t.sin())) <= width_mm
         })
     };
-    let narrow = |r: usize, f: usize| narrow_face(&[r], f);
+    // Region `r` is no wider than a tape.
+    let narrow = |r: usize, f: usize| narrow_within(&[r], f, cfg.tape_max_width_mm);
     // Region `r` is a strip of face region `f`: narrow, and at most half its size.
     let strip = |r: usize, f: usize| 2 * regions[r].n <= regions[f].n && narrow(r, f);
     // The largest region of a face of several (whose normal is the face's).
@@ -928,7 +929,7 @@ pub(crate) fn group_candidates(
         // The region band face `fi` of `faces` would take in.
         let wider = |faces: &[Vec<usize>], fi: usize| -> Option<usize> {
             let f0 = largest(&faces[fi]);
-            if !narrow_face(&faces[fi], f0) {
+            if !narrow_within(&faces[fi], f0, cfg.band_face_max_width_mm) {
                 return None;
             }
             contact

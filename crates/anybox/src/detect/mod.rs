@@ -459,6 +459,10 @@ pub struct DetectConfig {
     /// side as a third face) outscores the whole one. 1 leaves it as it was. Default 0.6
     /// (mean AP@0.5 as above: 1 0.7161, 0.6 0.7184, 0.4 0.7184).
     pub band_open_factor: f64,
+    /// See `band_face_alternatives`: a face is a band when it is no wider than this across,
+    /// mm. Default 90, as `tape_max_width_mm` (mean AP@0.5 as above: 60 0.7168, 130 0.7161
+    /// with tables +0.002 and pallets 0.7272).
+    pub band_face_max_width_mm: f64,
     /// Extents are measured between these quantiles of the points (and 1 − it). Default 0.02.
     pub extent_quantile: f64,
     /// Extents of a two- or three-face candidate are the union of each face's robust range
@@ -1140,6 +1144,7 @@ impl Default for DetectConfig {
             band_alternatives: true,
             band_face_alternatives: true,
             band_open_factor: 0.6,
+            band_face_max_width_mm: 90.0,
             extent_quantile: 0.02,
             per_face_extents: true,
             max_box_extent_mm: 800.0,
