@@ -448,7 +448,7 @@ pub struct DetectConfig {
     /// near its top edge cut off, which left the group a top with a sliver of front, about
     /// 50 mm deep. Scored like any other; the band reading is scored down
     /// (`band_open_factor`). Default true (bench, 48 views, seeds 2026 / 7 / 11 / 3 / 5 / 13,
-    /// mean AP@0.5 of the 15 rows: 0.7136 → 0.7184, AP@0.7 0.5564 → 0.5618; pallets 0.7260 →
+    /// mean AP@0.5 of the 30 rows: 0.7136 → 0.7184, AP@0.7 0.5564 → 0.5618; pallets 0.7260 →
     /// 0.7435, tables +0.002 to +0.003, shelves the same. Testing each region for narrowness
     /// rather than the face as a whole grew tops already bridged whole into the next carton:
     /// 0.7182).
