@@ -627,7 +627,9 @@ type Admit<'a> = dyn Fn(&[Vec<usize>], usize, usize, usize) -> bool + 'a;
 /// with [`DetectConfig::coplanar_alternatives`], so is a group in which a face refused as
 /// parallel to a strip of itself is joined to that strip; with
 /// [`DetectConfig::strip_alternatives`], so is every group of two or three faces with the
-/// coplanar strips it touches taken in.
+/// coplanar strips it touches taken in; with [`DetectConfig::band_face_alternatives`], so is
+/// every such group with each face that is only a band grown into the wider coplanar region
+/// past it, and the group it grew from is scored down.
 pub(crate) fn group_candidates(
     g: &Grid,
     labels: &[u32],
@@ -922,8 +924,8 @@ pub(crate) fn group_candidates(
         }
         added
     };
-    // A face that is only a band (no wider than `tape_max_width_mm` across, over all its
-    // regions) takes in the wider coplanar region it touches most, while the edges still fit:
+    // A face that is only a band (no wider than `band_face_max_width_mm` across, over all
+    // its regions) takes in the wider coplanar region it touches most, while the edges still fit:
     // the rest of a front cut off below a band along its top edge. Whether any face did.
     let grow_bands = |faces: &mut Vec<Vec<usize>>| -> bool {
         // The region band face `fi` of `faces` would take in.
