@@ -461,7 +461,10 @@ pub struct DetectConfig {
     pub band_open_factor: f64,
     /// See `band_face_alternatives`: a face is a band when it is no wider than this across,
     /// mm. Default 90, as `tape_max_width_mm` (mean AP@0.5 as above: 60 0.7168, 130 0.7161
-    /// with tables +0.002 and pallets 0.7272).
+    /// with tables +0.002 and pallets 0.7272, 110 0.7192, 100 0.7198 with every set up or
+    /// the same; 100 was not taken because shelf frames then took 100.6, 102.9 and 90.9 ms
+    /// median in three README bench runs against 94.8 and 94.6 at 90, too near the 100 ms
+    /// target on this VM).
     pub band_face_max_width_mm: f64,
     /// Extents are measured between these quantiles of the points (and 1 − it). Default 0.02.
     pub extent_quantile: f64,
