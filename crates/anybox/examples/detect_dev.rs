@@ -517,7 +517,7 @@ fn main() {
                 use anybox::geom::iou::{iou, IouMethod};
                 let cfg_e: anybox::config::Config = std::env::var("EST_CFG")
                     .ok()
-                    .and_then(|j| serde_json::from_str(&j).ok())
+                    .map(|j| serde_json::from_str(&j).expect("EST_CFG: a Config JSON"))
                     .unwrap_or_default();
                 let masks: Vec<Mask> = dets.iter().map(|d| d.mask.clone()).collect();
                 let est_d =
@@ -1131,7 +1131,8 @@ fn main() {
                 // The bench's frame (`runner::run_detected_frame`) with config `j`: each
                 // record's kind, score and best 3D IoU with a GT box.
                 use anybox::geom::iou::{iou, IouMethod};
-                let c: anybox::config::Config = serde_json::from_str(&j).unwrap_or_default();
+                let c: anybox::config::Config =
+                    serde_json::from_str(&j).expect("RUNFRAME: a Config JSON");
                 let out =
                     anybox::runner::run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &c)
                         .expect("frame");

@@ -547,6 +547,7 @@ mod tests {
             assert!(name.starts_with("alternative detection "));
         }
     }
+
     /// A generated pallet (seed 13, scene 20 of 48, as `SEED=13 ONLY=pallet VIEW=20
     /// detect_dev 48` draws it): a layer of nine cartons of one size seen from above, five
     /// found whole and the rest in pieces or not at all. The found ones' lattice readings put
