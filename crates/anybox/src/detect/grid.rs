@@ -2,7 +2,9 @@
 //! camera-frame point, smoothed normal and smoothed colour.
 //!
 //! In: a depth map (mm), optional RGB, intrinsics. Out: [`Grid`]. Everything later in the
-//! detector works on this grid, so that a 640×480 frame costs 320×240 cells.
+//! detector works on this grid, so that a 640×480 frame costs 320×240 cells. The smoothing and
+//! normal radii grow with depth where the frame's own depth noise, measured here, is large
+//! for its depth (`DetectConfig::radius_noise_ref`).
 
 use anybox_geom::Intrinsics;
 use anybox_io::{DepthMap, RgbImage};
@@ -31,6 +33,63 @@ pub(crate) struct Grid {
     /// The cell holds a thin dark (or bright) line of the full-resolution image (a seam between
     /// flush cartons, a printed edge); such cells join nothing in the colour-aware segmentation.
     pub seam: Vec<bool>,
+    /// Depth beyond which the smoothing and normal radii grow, mm (0: they do not), from the
+    /// frame's measured noise (see [`DetectConfig::radius_noise_ref`]).
+    pub grow_from_mm: f32,
+}
+
+/// A radius of `base` cells at depth `z_mm`: grown in proportion to depth beyond
+/// `grow_from_mm` (0: never; see [`DetectConfig::radius_noise_ref`]), at most
+/// `radius_max_cells`.
+pub(crate) fn radius_at(base: u32, z_mm: f32, grow_from_mm: f32, cfg: &DetectConfig) -> usize {
+    if grow_from_mm <= 0.0 || z_mm <= grow_from_mm {
+        return base as usize;
+    }
+    let grown = (base as f32 * z_mm / grow_from_mm).round() as u32;
+    grown.clamp(base, cfg.radius_max_cells.max(base)) as usize
+}
+
+/// The frame's depth-noise index, 1/mm: the median over cells of |z − mean of its 8
+/// neighbours| / z², where the 8 lie within the jump tolerance (the mean is exact on a plane,
+/// so what is left is noise, and sensor noise grows with the square of depth). `None` from
+/// under 500 such cells.
+fn noise_index(z: &[f32], w: usize, h: usize, cfg: &DetectConfig) -> Option<f32> {
+    let mut vals: Vec<f32> = (1..h.saturating_sub(1))
+        .into_par_iter()
+        .flat_map_iter(|v| {
+            (1..w - 1).filter_map(move |u| {
+                let i = v * w + u;
+                let zc = z[i];
+                if zc <= 0.0 {
+                    return None;
+                }
+                let tol = jump_tol(cfg, zc);
+                let mut sum = 0f32;
+                for j in [
+                    i - w - 1,
+                    i - w,
+                    i - w + 1,
+                    i - 1,
+                    i + 1,
+                    i + w - 1,
+                    i + w,
+                    i + w + 1,
+                ] {
+                    if z[j] <= 0.0 || (z[j] - zc).abs() > tol {
+                        return None;
+                    }
+                    sum += z[j];
+                }
+                Some((zc - sum / 8.0).abs() / (zc * zc))
+            })
+        })
+        .collect();
+    if vals.len() < 500 {
+        return None;
+    }
+    let mid = vals.len() / 2;
+    let (_, m, _) = vals.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+    Some(*m)
 }
 
 /// Depth jump tolerance at depth `z_mm`: neighbours farther apart than this are different
@@ -80,9 +139,17 @@ impl Grid {
             || cells(rgb, depth, w, h, step, cfg),
         );
         let p = points(&z, w, h, &gk);
-        let zs = smooth_depth(&z, w, h, cfg);
+        let noise = (cfg.radius_noise_ref > 0.0)
+            .then(|| noise_index(&z, w, h, cfg))
+            .flatten();
+        let grow_from_mm = match noise {
+            Some(k) if k > 0.0 => cfg.radius_noise_ref as f32 / k,
+            _ => 0.0,
+        };
+        log::debug!("noise index {noise:?}: radii grow from {grow_from_mm:.0} mm");
+        let zs = smooth_depth(&z, w, h, grow_from_mm, cfg);
         let ps = points(&zs, w, h, &gk);
-        let nrm = normals(&zs, &ps, w, h, cfg);
+        let nrm = normals(&zs, &ps, w, h, grow_from_mm, cfg);
         let c = if rgb.is_some() { box3(&c, w, h) } else { c };
         Grid {
             w,
@@ -94,6 +161,7 @@ impl Grid {
             n: nrm,
             c,
             seam,
+            grow_from_mm,
         }
     }
 }
@@ -319,8 +387,7 @@ fn points(z: &[f32], w: usize, h: usize, k: &Intrinsics) -> Vec<[f32; 3]> {
 
 /// Guarded box filter of the depth: only neighbours on the same surface (within the jump
 /// tolerance of the centre) are averaged, so edges stay sharp while sensor noise drops.
-fn smooth_depth(z: &[f32], w: usize, h: usize, cfg: &DetectConfig) -> Vec<f32> {
-    let r = cfg.smooth_radius_cells as isize;
+fn smooth_depth(z: &[f32], w: usize, h: usize, grow_from_mm: f32, cfg: &DetectConfig) -> Vec<f32> {
     let mut out = vec![0f32; w * h];
     out.par_chunks_mut(w).enumerate().for_each(|(v, row)| {
         let v = v as isize;
@@ -330,6 +397,7 @@ fn smooth_depth(z: &[f32], w: usize, h: usize, cfg: &DetectConfig) -> Vec<f32> {
             if zc <= 0.0 {
                 continue;
             }
+            let r = radius_at(cfg.smooth_radius_cells, zc, grow_from_mm, cfg) as isize;
             let tol = jump_tol(cfg, zc);
             let (mut s, mut n) = (0f32, 0f32);
             let (u0, u1) = (
@@ -357,8 +425,14 @@ fn sub(a: &[f32; 3], b: &[f32; 3]) -> [f32; 3] {
 
 /// Normals from central differences at ±`normal_radius_cells` (one-sided next to holes and
 /// depth jumps), oriented towards the camera.
-fn normals(zs: &[f32], ps: &[[f32; 3]], w: usize, h: usize, cfg: &DetectConfig) -> Vec<[f32; 3]> {
-    let r = cfg.normal_radius_cells.max(1) as usize;
+fn normals(
+    zs: &[f32],
+    ps: &[[f32; 3]],
+    w: usize,
+    h: usize,
+    grow_from_mm: f32,
+    cfg: &DetectConfig,
+) -> Vec<[f32; 3]> {
     let mut out = vec![[0f32; 3]; w * h];
     let same = |i: usize, j: usize| -> bool {
         zs[j] > 0.0 && (zs[j] - zs[i]).abs() <= jump_tol(cfg, zs[i])
@@ -370,6 +444,7 @@ fn normals(zs: &[f32], ps: &[[f32; 3]], w: usize, h: usize, cfg: &DetectConfig) 
             if zs[i] <= 0.0 {
                 continue;
             }
+            let r = radius_at(cfg.normal_radius_cells.max(1), zs[i], grow_from_mm, cfg);
             let tangent = |lo: Option<usize>, hi: Option<usize>| -> Option<[f32; 3]> {
                 let lo = lo.filter(|&j| same(i, j));
                 let hi = hi.filter(|&j| same(i, j));
@@ -567,5 +642,54 @@ mod tests {
         }
         // Premise: the patterns do bridge gaps, so the comparison covers that branch.
         assert!(bridged_cells > 1000, "only {bridged_cells} bridged cells");
+    }
+
+    /// Cells of a gently tilted plane about 2 m away, plus white noise of `sigma_mm`.
+    fn noisy_plane(w: usize, h: usize, sigma_mm: f64) -> Vec<f32> {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        (0..w * h)
+            .map(|i| {
+                let (u, v) = ((i % w) as f64, (i / w) as f64);
+                // Box–Muller.
+                let (a, b): (f64, f64) = (rng.random::<f64>().max(1e-12), rng.random());
+                let g = (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos();
+                (2000.0 + 0.05 * u + 0.03 * v + sigma_mm * g) as f32
+            })
+            .collect()
+    }
+
+    #[test]
+    fn noise_index_reads_white_noise_against_a_closed_form() {
+        let (w, h) = (120, 90);
+        let cfg = DetectConfig::default();
+        // The mean of 8 neighbours is exact on a plane: no noise, no index.
+        let clean = noise_index(&noisy_plane(w, h, 0.0), w, h, &cfg).expect("enough cells");
+        assert!(clean < 2e-10, "noise index {clean:e} of a clean plane");
+        // z − mean of 8 is normal with variance σ²·(1 + 1/8); the median of its absolute
+        // value is 0.6745 times its σ.
+        let sigma = 6.0;
+        let want = 0.6745 * sigma * (9.0f64 / 8.0).sqrt() / (2000.0 * 2000.0);
+        let got = noise_index(&noisy_plane(w, h, sigma), w, h, &cfg).expect("enough cells");
+        assert!(
+            (f64::from(got) - want).abs() < 0.06 * want,
+            "noise index {got:e}, closed form {want:e}"
+        );
+        // Too few cells to tell.
+        assert!(noise_index(&noisy_plane(20, 20, sigma), 20, 20, &cfg).is_none());
+    }
+
+    #[test]
+    fn radii_grow_with_depth_past_the_noise_depth_up_to_the_cap() {
+        let cfg = DetectConfig {
+            radius_max_cells: 5,
+            ..DetectConfig::default()
+        };
+        assert_eq!(radius_at(2, 3000.0, 0.0, &cfg), 2, "0 disables");
+        assert_eq!(radius_at(2, 900.0, 1000.0, &cfg), 2);
+        assert_eq!(radius_at(2, 1600.0, 1000.0, &cfg), 3);
+        assert_eq!(radius_at(2, 2000.0, 1000.0, &cfg), 4);
+        assert_eq!(radius_at(2, 4000.0, 1000.0, &cfg), 5, "capped");
+        assert_eq!(radius_at(3, 1000.0, 1000.0, &cfg), 3);
     }
 }

@@ -345,6 +345,7 @@ mod tests {
             n: vec![[0.0, 0.0, -1.0]; W * H],
             c: vec![[128.0; 3]; W * H],
             seam: s,
+            grow_from_mm: 0.0,
         };
         (g, labels)
     }

@@ -672,6 +672,7 @@ mod tests {
             n: vec![[0.0, 0.0, -1.0]; W * H],
             c: vec![[128.0; 3]; W * H],
             seam: vec![false; W * H],
+            grow_from_mm: 0.0,
         };
         (Wall { g, img }, vec![0; W * H])
     }

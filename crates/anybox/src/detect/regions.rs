@@ -171,7 +171,10 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
     let (w, h) = (g.w, g.h);
     // A normal at a cell mixes depth from normal_radius + smooth_radius cells around it:
     // compare normals that far outside the pair, where each is purely one side's.
-    let r = (cfg.normal_radius_cells.max(1) + cfg.smooth_radius_cells) as usize;
+    let reach = |z: f32| {
+        super::grid::radius_at(cfg.normal_radius_cells.max(1), z, g.grow_from_mm, cfg)
+            + super::grid::radius_at(cfg.smooth_radius_cells, z, g.grow_from_mm, cfg)
+    };
     let cos_n = (cfg.normal_cut_deg.to_radians().cos()) as f32;
     let col2 = (cfg.colour_cut * cfg.colour_cut) as f32;
     let same = |i: usize, j: usize| -> bool {
@@ -196,6 +199,7 @@ pub(crate) fn joins(g: &Grid, has_rgb: bool, seam: &[bool], cfg: &DetectConfig) 
                 }
             }
             // Normals compared r cells outside the pair, staying on the surface.
+            let r = reach(g.z[i]);
             let (mut a, mut b) = (i, j);
             for _ in 0..r.min(n_back) {
                 if !same(a, a - stride) {
@@ -814,6 +818,7 @@ mod tests {
             p,
             c,
             seam: vec![false; W * H],
+            grow_from_mm: 0.0,
         };
         (g, labels)
     }
