@@ -6,7 +6,9 @@
 //! masks from SAM + DINOv2 matching (SAM-6D's ISM); anybox replaces that stage (SPEC §1 stage 2)
 //! with geometry and colour:
 //! 1. `grid`: the frame on a grid downsampled by [`DetectConfig::grid_step_px`]; per cell the
-//!    nearest surface's depth, its 3D point, a normal from guarded-smoothed depth, a smoothed colour;
+//!    nearest surface's depth, its 3D point, a normal from guarded-smoothed depth (over more
+//!    cells far away where the frame's measured depth noise is large:
+//!    [`DetectConfig::radius_noise_ref`]), a smoothed colour;
 //! 2. `regions`: union-find over 4-neighbours, cut at depth jumps, normal changes and colour
 //!    changes — flush faces of touching cartons are separated by their printed edges, tape,
 //!    shadowed gaps and colour differences, which depth alone cannot see; a plane per region;
