@@ -13,7 +13,8 @@
 //! Around the pipeline: [`runner`] runs it over a BOP dataset or one frame and writes result
 //! records, [`overlay`] draws the boxes, [`bench`](mod@bench) compares the estimator variants.
 //! The crate-internal `repeat` module judges whether one box is copies of another's size, for
-//! the detector (stage 2) and the pipeline's repeat readings (stage 7) alike.
+//! the detector (stage 2) and the pipeline's repeat readings (stage 7) alike; `depth_noise`
+//! reads how noisy the depth is for its depth, for the detector's grid and the observation.
 //!
 //! Evaluation ([`eval`]) and the synthetic generator ([`synth`]) are their own crates,
 //! re-exported here.
@@ -22,6 +23,7 @@ pub mod bench;
 pub mod config;
 pub mod context;
 pub mod depth_filter;
+mod depth_noise;
 pub mod detect;
 pub mod error;
 pub mod hypotheses;

@@ -747,29 +747,14 @@ fn normal_radius(
     }
     let mut vals = Vec::new();
     for r in 1..bh - 1 {
-        'px: for k in 1..bw - 1 {
+        for k in 1..bw - 1 {
             let i = r * bw + k;
             if !keep[i] {
                 continue;
             }
-            let mut sum = 0f64;
-            for j in [
-                i - bw - 1,
-                i - bw,
-                i - bw + 1,
-                i - 1,
-                i + 1,
-                i + bw - 1,
-                i + bw,
-                i + bw + 1,
-            ] {
-                if !keep[j] {
-                    continue 'px;
-                }
-                sum += f64::from(z_box[j]);
+            if let Some(x) = crate::depth_noise::relative_residual(z_box, bw, i, |j| keep[j]) {
+                vals.push(f64::from(x));
             }
-            let z = f64::from(z_box[i]);
-            vals.push((z - sum / 8.0).abs() / (z * z));
         }
     }
     if vals.len() < 200 {

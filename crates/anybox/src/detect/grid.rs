@@ -57,30 +57,13 @@ fn noise_index(z: &[f32], w: usize, h: usize, cfg: &DetectConfig) -> Option<f32>
     let mut vals: Vec<f32> = (1..h.saturating_sub(1))
         .into_par_iter()
         .flat_map_iter(|v| {
-            (1..w - 1).filter_map(move |u| {
+            (1..w.saturating_sub(1)).filter_map(move |u| {
                 let i = v * w + u;
                 let zc = z[i];
-                if zc <= 0.0 {
-                    return None;
-                }
                 let tol = jump_tol(cfg, zc);
-                let mut sum = 0f32;
-                for j in [
-                    i - w - 1,
-                    i - w,
-                    i - w + 1,
-                    i - 1,
-                    i + 1,
-                    i + w - 1,
-                    i + w,
-                    i + w + 1,
-                ] {
-                    if z[j] <= 0.0 || (z[j] - zc).abs() > tol {
-                        return None;
-                    }
-                    sum += z[j];
-                }
-                Some((zc - sum / 8.0).abs() / (zc * zc))
+                crate::depth_noise::relative_residual(z, w, i, |j| {
+                    z[j] > 0.0 && (z[j] - zc).abs() <= tol
+                })
             })
         })
         .collect();
