@@ -369,7 +369,8 @@ fn points(z: &[f32], w: usize, h: usize, k: &Intrinsics) -> Vec<[f32; 3]> {
 }
 
 /// Guarded box filter of the depth: only neighbours on the same surface (within the jump
-/// tolerance of the centre) are averaged, so edges stay sharp while sensor noise drops.
+/// tolerance of the centre) are averaged, so edges stay sharp while sensor noise drops. The
+/// window's radius is `smooth_radius_cells`, grown beyond `grow_from_mm` ([`radius_at`]).
 fn smooth_depth(z: &[f32], w: usize, h: usize, grow_from_mm: f32, cfg: &DetectConfig) -> Vec<f32> {
     let mut out = vec![0f32; w * h];
     out.par_chunks_mut(w).enumerate().for_each(|(v, row)| {
@@ -406,8 +407,8 @@ fn sub(a: &[f32; 3], b: &[f32; 3]) -> [f32; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
-/// Normals from central differences at ±`normal_radius_cells` (one-sided next to holes and
-/// depth jumps), oriented towards the camera.
+/// Normals from central differences at ±`normal_radius_cells`, grown beyond `grow_from_mm`
+/// ([`radius_at`]) (one-sided next to holes and depth jumps), oriented towards the camera.
 fn normals(
     zs: &[f32],
     ps: &[[f32; 3]],
