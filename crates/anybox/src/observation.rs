@@ -743,21 +743,15 @@ fn normal_radius(
     cfg: &ObservationConfig,
 ) -> u32 {
     let base = cfg.normal_radius_px;
-    if cfg.normal_radius_noise_ref <= 0.0 || bw < 3 || bh < 3 {
+    if cfg.normal_radius_noise_ref <= 0.0 {
         return base;
     }
-    let mut vals = Vec::new();
-    for r in 1..bh - 1 {
-        for k in 1..bw - 1 {
-            let i = r * bw + k;
-            if !keep[i] {
-                continue;
-            }
-            if let Some(x) = crate::depth_noise::relative_residual(z_box, bw, i, |j| keep[j]) {
-                vals.push(f64::from(x));
-            }
-        }
-    }
+    // Border pixels of the box have no 8 neighbours: `relative_residual` leaves them out.
+    let vals: Vec<f64> = (0..bw * bh)
+        .filter(|&i| keep[i])
+        .filter_map(|i| crate::depth_noise::relative_residual(z_box, bw, i, |j| keep[j]))
+        .map(f64::from)
+        .collect();
     if vals.len() < 200 {
         return base;
     }

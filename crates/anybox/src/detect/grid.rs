@@ -54,7 +54,7 @@ pub(crate) fn radius_at(base: u32, z_mm: f32, grow_from_mm: f32, cfg: &DetectCon
 /// so what is left is noise, and sensor noise grows with the square of depth). `None` from
 /// under 500 such cells.
 fn noise_index(z: &[f32], w: usize, h: usize, cfg: &DetectConfig) -> Option<f32> {
-    let mut vals: Vec<f32> = (1..h.saturating_sub(1))
+    let vals: Vec<f64> = (1..h.saturating_sub(1))
         .into_par_iter()
         .flat_map_iter(|v| {
             (1..w.saturating_sub(1)).filter_map(move |u| {
@@ -64,15 +64,15 @@ fn noise_index(z: &[f32], w: usize, h: usize, cfg: &DetectConfig) -> Option<f32>
                 crate::depth_noise::relative_residual(z, w, i, |j| {
                     z[j] > 0.0 && (z[j] - zc).abs() <= tol
                 })
+                .map(f64::from)
             })
         })
         .collect();
     if vals.len() < 500 {
         return None;
     }
-    let mid = vals.len() / 2;
-    let (_, m, _) = vals.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
-    Some(*m)
+    // Exact: the median is one of the f32 values.
+    Some(crate::observation::median(vals) as f32)
 }
 
 /// Depth jump tolerance at depth `z_mm`: neighbours farther apart than this are different
