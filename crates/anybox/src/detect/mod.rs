@@ -739,7 +739,7 @@ pub struct DetectConfig {
     /// count). Default 1/3. Where the next column's carton stands beside part of that side
     /// only, 4 of 9 lie on the plane and the chain stays unpaired (seed 11, pallet view 9:
     /// chains of 4 and 6 halves); 0.5 pairs one of its cartons (3D IoU 0.46 → 0.80), but on
-    /// the bench (48 views, six seeds, mean AP@0.5 of the 15 rows) 0.5 and 0.67 both gave
+    /// the bench (48 views, six seeds, mean AP@0.5 of the 30 rows) 0.5 and 0.67 both gave
     /// 0.7188 against 0.7184, pallets 0.7438 / 0.7430 against 0.7435 (seed 2026 −0.006),
     /// shelves +0.0014 / +0.0024: within what the bench moves by, so not taken.
     pub halves_end_max_on_plane: f64,
