@@ -1859,9 +1859,11 @@ fn a_box_standing_on_a_box_of_another_colour_is_not_one_carton() {
     assert!(d > 0.9 && g > 0.8, "best mask IoU: dark {d}, grey {g}");
     // Premise: without the colour test the pair is one detection, bleeding into the grey box,
     // with the smallest region of the time (20 cells; with 12, the default since, the pair is
-    // parted without the colour test too) and fixed radii (grown with the frame's depth
-    // noise, they part it too).
+    // parted without the colour test too), fixed radii (grown with the frame's depth noise,
+    // they part it too), and without the test of parallel patches off one plane (it parts
+    // it too: the grey top lies far below the dark one).
     let (d, g) = best(&DetectConfig {
+        split_step_min_mm: 0.0,
         split_flap_max_colour_delta: 0.0,
         min_region_cells: 20,
         radius_noise_ref: 0.0,
@@ -2588,4 +2590,57 @@ fn a_layer_of_tops_ends_at_the_front_below_its_near_edge() {
         0.45,
         "with the plain end test",
     );
+}
+
+#[test]
+fn parallel_patches_off_one_plane_are_two_boxes() {
+    // Generated table scene (seed 11, 48 scenes, scene 4: `SEED=11 ONLY=table-d0 VIEW=4`
+    // with `detect_dev 48`): a 54 × 138 × 164 mm box against a 49 × 111 × 307 mm one of the
+    // same colour. Their faces facing the camera are parallel but a few mm apart, under the
+    // depth-jump tolerance, so one surface (and one object) held both; a plane through both
+    // colour patches leaves 3.5 mm RMS beyond what a plane through each leaves.
+    let v = table_d0_view_of(11, 48, 4);
+    let mut boxes = scene_masks(&v, &[4], [54.0, 138.0, 164.0], 0.5);
+    boxes.extend(scene_masks(&v, &[7], [49.0, 111.0, 307.0], 0.5));
+    let found = best_ious_detected(&v, &boxes, &DetectConfig::default());
+    assert!(found.iter().all(|&x| x > 0.7), "best mask IoUs {found:.3?}");
+    // Premise: without the test the smaller box is lost in the merged one (measured 0.26).
+    let lost = best_ious_detected(
+        &v,
+        &boxes,
+        &DetectConfig {
+            split_step_min_mm: 0.0,
+            ..DetectConfig::default()
+        },
+    );
+    assert!(lost[0] < 0.4, "best mask IoUs without the test {lost:.3?}");
+}
+
+#[test]
+fn plane_excess_of_a_step_between_halves_matches_the_closed_form() {
+    // Two 200 × 100 mm patches side by side along x, the second raised by s along the normal.
+    // One line fitted through a step of s over x uniform on [−L, L] leaves a variance of
+    // s²/4 − (sL/4)² / (L²/3) = s²/16: an RMS of s/4 beyond the patches' own (zero) residuals.
+    let s = 8.0;
+    let patch = |x0: f64, z: f64| -> Vec<Vector3<f64>> {
+        (0..100)
+            .flat_map(|i| (0..50).map(move |j| (i, j)))
+            .map(|(i, j)| Vector3::new(x0 + 2.0 * i as f64 + 1.0, 2.0 * j as f64, 1000.0 + z))
+            .collect()
+    };
+    let (a, b) = (patch(-200.0, 0.0), patch(0.0, s));
+    let (_, _, sa) = plane_ssr(&a).unwrap();
+    let (_, _, sb) = plane_ssr(&b).unwrap();
+    assert!(
+        sa < 1e-6 && sb < 1e-6,
+        "flat patches fit exactly: {sa} {sb}"
+    );
+    let excess = plane_excess_mm(&a, sa, &b, sb).unwrap();
+    assert!(
+        (excess - s / 4.0).abs() < 0.02 * s / 4.0,
+        "excess {excess} mm"
+    );
+    // One plane: nothing beyond.
+    let flat = plane_excess_mm(&a, sa, &patch(0.0, 0.0), sb).unwrap();
+    assert!(flat < 1e-3, "coplanar excess {flat} mm");
 }
