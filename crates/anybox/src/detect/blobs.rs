@@ -21,6 +21,10 @@
 //! cells fall into two clusters of clearly different hue, either side of a plane across a box
 //! axis, is scored whole and also cut there (`blob_fit_colour_split_min_chroma`: a box
 //! standing on a carton of another colour); the whole and the parts compete in `select`.
+//! One that fits and that neither a step nor colour cuts is still cut where its
+//! cross-section steps along a box axis (`blob_profile_cut_min_mm`: two boxes of one colour
+//! side by side, end to end or stacked, their faces flush), when the parts, as boxes, fit
+//! better than the whole and no nearer thing explains the step; the whole competes too.
 //! Flush cartons of one colour that fit one cuboid are split in `select` by their seams, as
 //! surfaces are. A small box's faces bend a little past `max_bend_deg` (its edges' smoothed
 //! normals cover much of each face): an object of three faces that bends no more than
@@ -305,6 +309,193 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<Step> {
     best.map(|(step, _)| step)
 }
 
+/// A step in the object's cross-section along one box axis `e` (two boxes of one colour
+/// stacked, or side by side or end to end, with faces flush or too little set back for
+/// [`find_step`]): slabs across `e` are a box's full width along each other axis, so the
+/// near or far edge of the cells along another axis stays put along `e` on one box but moves
+/// by the difference of the boxes' extents where one box ends and the other begins. Returns
+/// the cut {p·e = s0} at the largest such move of more than `blob_profile_cut_min_mm` (and
+/// three grid cells), with both sides at least `blob_profile_cut_min_part_mm` long and
+/// each side's edge steady within a third of the move; unless the cells the wider side
+/// would have had past the narrower one's edge, moved along `e`, are hidden by something
+/// nearer (a box occluded in part is not two boxes).
+fn find_profile_cut(
+    g: &Grid,
+    fr: &Frame,
+    blob: &[u32],
+    cfg: &DetectConfig,
+) -> Option<(Vector3<f64>, f64)> {
+    let min_move = cfg.blob_profile_cut_min_mm;
+    if min_move <= 0.0 || blob.len() < 4 * cfg.min_face_cells as usize {
+        return None;
+    }
+    let pts: Vec<(Vector3<f64>, usize)> = blob
+        .iter()
+        .map(|&i| i as usize)
+        .filter(|&i| g.z[i] > 0.0)
+        .map(|i| (v3(&g.p[i]), i))
+        .collect();
+    let mut zs: Vec<f64> = pts.iter().map(|(p, _)| p.z).collect();
+    let mid = zs.len() / 2;
+    let zmed = *zs.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+    // Edges are found to about a cell: three cells' width at the median depth at least.
+    let cell_mm = zmed / g.k.fx.max(1.0);
+    let min_move = min_move.max(3.0 * cell_mm);
+    let min_part = cfg.blob_profile_cut_min_part_mm;
+    // A lone face's in-plane axes are guesses: cut only along them, never across the face.
+    let cut_axes: Vec<usize> = if fr.axes.len() >= 2 {
+        (0..3).collect()
+    } else {
+        (1..3).collect()
+    };
+    // Faces (of at least a few cells) that a cut {p·e = s0} crosses: with cells on both
+    // sides beyond a tenth of the face.
+    let crossed = |e: &Vector3<f64>, s0: f64| -> usize {
+        fr.faces
+            .iter()
+            .filter(|f| f.len() >= cfg.min_face_cells as usize)
+            .filter(|f| {
+                let lo = f
+                    .iter()
+                    .filter(|&&i| v3(&g.p[i as usize]).dot(e) < s0)
+                    .count();
+                let min = f.len() / 10;
+                lo > min && f.len() - lo > min
+            })
+            .count()
+    };
+    // (faces crossed, move, cut along e at s0): two boxes side by side with flush faces
+    // make an L whose both cuts leave two cuboids; the one between the boxes crosses only
+    // the faces they share (their coplanar tops), the other one a box's side face as well.
+    let mut best: Option<(usize, f64, Vector3<f64>, f64)> = None;
+    for &k in &cut_axes {
+        let e = fr.full[k];
+        let mut t: Vec<f64> = pts.iter().map(|(p, _)| p.dot(&e)).collect();
+        let (t0, t1) = robust_range(&mut t, 0.01);
+        let len = t1 - t0;
+        if len < 2.0 * min_part {
+            continue;
+        }
+        const BINS: usize = 24;
+        let bw = len / BINS as f64;
+        let bin_of = |p: &Vector3<f64>| {
+            let b = ((p.dot(&e) - t0) / bw).floor();
+            (b >= 0.0 && b < BINS as f64).then_some(b as usize)
+        };
+        for j in (0..3).filter(|&j| j != k) {
+            let f = fr.full[j];
+            let mut by_bin: Vec<Vec<f64>> = vec![Vec::new(); BINS];
+            for (p, _) in &pts {
+                if let Some(b) = bin_of(p) {
+                    by_bin[b].push(p.dot(&f));
+                }
+            }
+            // Per bin, the low and high edges along f (robust to a stray cell or two).
+            let edges: Vec<Option<(f64, f64)>> = by_bin
+                .iter_mut()
+                .map(|v| (v.len() >= 8).then(|| robust_range(v, 0.03)))
+                .collect();
+            for side in 0..2 {
+                let edge = |b: usize| edges[b].map(|(lo, hi)| if side == 0 { lo } else { hi });
+                // Cut between bins c − 1 and c.
+                let min_bins = ((min_part / bw).ceil() as usize).max(3);
+                for c in min_bins..=(BINS - min_bins) {
+                    let left: Vec<f64> = (0..c).filter_map(edge).collect();
+                    let right: Vec<f64> = (c..BINS).filter_map(edge).collect();
+                    if left.len() < 3 || right.len() < 3 {
+                        continue;
+                    }
+                    let (ml, sl) = median_spread(left);
+                    let (mr, sr) = median_spread(right);
+                    let mv = (ml - mr).abs();
+                    // The edge right at the cut must have moved too (not a slow drift).
+                    let (Some(a), Some(b)) = (edge(c - 1), edge(c)) else {
+                        continue;
+                    };
+                    if mv <= min_move || sl.max(sr) > mv / 3.0 || (a - b).abs() < mv / 2.0 {
+                        continue;
+                    }
+                    let s0 = t0 + c as f64 * bw;
+                    let nc = crossed(&e, s0);
+                    if best.is_some_and(|(bn, bm, _, _)| (bn, -bm) <= (nc, -mv)) {
+                        continue;
+                    }
+                    // The narrower side: its edge is inside the wider one's.
+                    let wide_left = if side == 0 { ml < mr } else { ml > mr };
+                    if hidden_past_edge(g, &pts, &e, s0, &f, (ml, mr), wide_left, bw, cfg) {
+                        continue;
+                    }
+                    best = Some((nc, mv, e, s0));
+                }
+            }
+        }
+    }
+    best.map(|(_, _, e, s0)| (e, s0))
+}
+
+/// Median of `v` and its spread (1.4826 × median absolute deviation).
+fn median_spread(v: Vec<f64>) -> (f64, f64) {
+    let m = crate::observation::median(v.clone());
+    let d = v.into_iter().map(|x| (x - m).abs()).collect();
+    (m, 1.4826 * crate::observation::median(d))
+}
+
+/// Whether what the wider side of a profile cut would have shown past the narrower side's edge
+/// is hidden by something nearer: the wider side's cells beyond the narrower edge (edges at
+/// `ml` left, `mr` right of the cut s0 along `f`), moved along `e` into the narrower side by
+/// two bins, land mostly behind nearer depth.
+#[allow(clippy::too_many_arguments)]
+fn hidden_past_edge(
+    g: &Grid,
+    pts: &[(Vector3<f64>, usize)],
+    e: &Vector3<f64>,
+    s0: f64,
+    f: &Vector3<f64>,
+    (ml, mr): (f64, f64),
+    wide_left: bool,
+    bw: f64,
+    cfg: &DetectConfig,
+) -> bool {
+    let (m_wide, m_narrow) = if wide_left { (ml, mr) } else { (mr, ml) };
+    let beyond = |x: f64| {
+        if m_wide > m_narrow {
+            x > m_narrow
+        } else {
+            x < m_narrow
+        }
+    };
+    let shift = if wide_left { 2.0 * bw } else { -2.0 * bw };
+    let (mut n, mut hidden) = (0usize, 0usize);
+    for (p, _) in pts {
+        let t = p.dot(e) - s0;
+        let near_cut = if wide_left {
+            (-2.0 * bw..0.0).contains(&t)
+        } else {
+            (0.0..2.0 * bw).contains(&t)
+        };
+        if !near_cut || !beyond(p.dot(f)) {
+            continue;
+        }
+        let q = p + e * shift;
+        if q.z <= 0.0 {
+            continue;
+        }
+        let u = (g.k.fx * q.x / q.z + g.k.cx).round();
+        let v = (g.k.fy * q.y / q.z + g.k.cy).round();
+        if u < 0.0 || v < 0.0 || u >= g.w as f64 || v >= g.h as f64 {
+            continue;
+        }
+        let zi = g.z[v as usize * g.w + u as usize] as f64;
+        n += 1;
+        // Nearer than the face's plane tolerance: a box standing on the face hides it from
+        // its foot upwards, within a jump tolerance of the face at first.
+        if zi > 0.0 && zi < q.z - plane_tol(cfg, q.z) {
+            hidden += 1;
+        }
+    }
+    n > 0 && 2 * hidden >= n
+}
+
 /// A colour change across the object (two boxes of different colours stacked or end to end,
 /// their sides flush, so that no step or crease parts them): the cut {p·e = s0} along a box
 /// axis, at a quantile of the object's cells between `blob_colour_cut_min_fraction` and its
@@ -553,6 +744,65 @@ fn object_candidates(
                 } else {
                     None
                 };
+                // Failing that, a fitting object may be two boxes of one colour, flush: its
+                // cross-section steps along one axis. Cut there when the two parts, scored
+                // as boxes, beat the whole by `blob_profile_cut_margin` (a part of one box is
+                // as good a cuboid as the whole, so only a misfit whole gives way); the
+                // whole then competes with its parts.
+                let profile = (cut.is_none() && !misfit && depth < cfg.blob_max_cuts)
+                    .then(|| find_profile_cut(g, &fr, &blob, cfg))
+                    .flatten();
+                if let Some(c) = profile {
+                    let whole = score_part(&blob, &fr);
+                    let (lo, hi) = by_plane(c, "profile");
+                    // Shape alone (plane fit × silhouette IoU × depth consistency): a part
+                    // may show fewer faces than the whole, which says nothing of the cut.
+                    let shape = |r: &Raw| {
+                        let f = match r.n_faces {
+                            1 => cfg.one_face_factor,
+                            2 => cfg.two_face_factor,
+                            _ => 1.0,
+                        };
+                        if f > 0.0 {
+                            r.score / f
+                        } else {
+                            0.0
+                        }
+                    };
+                    let part_score = |p: &[u32]| {
+                        frame_of(g, p, cfg)
+                            .and_then(|f| score_part(p, &f))
+                            .map(|r| shape(&r))
+                    };
+                    // A part that scores as no box counts as 0.
+                    let (sa, sb) = (
+                        part_score(&lo).unwrap_or(0.0),
+                        part_score(&hi).unwrap_or(0.0),
+                    );
+                    let beat = match &whole {
+                        Some(w) => {
+                            let mean = (sa * lo.len() as f64 + sb * hi.len() as f64)
+                                / (lo.len() + hi.len()) as f64;
+                            if dbg && blob.len() > 200 {
+                                log::debug!(
+                                    "blob {b}.{pi} profile parts {sa:.2} {sb:.2} whole {:.2}",
+                                    shape(w)
+                                );
+                            }
+                            mean >= shape(w) + cfg.blob_profile_cut_margin
+                        }
+                        // No box at all (a whole stack): its parts would escape the seam
+                        // splits that `select` makes of coarse candidates.
+                        None => false,
+                    };
+                    if beat {
+                        out.extend(whole);
+                        work.push((pi, lo, depth + 1));
+                        work.push((next, hi, depth + 1));
+                        next += 1;
+                        continue;
+                    }
+                }
                 match cut {
                     Some(c) => Some(by_plane(c, "colour")),
                     None if misfit => {
