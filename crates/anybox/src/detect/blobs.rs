@@ -713,6 +713,8 @@ fn object_candidates(
             && fr.agree >= cfg.blob_min_agree
             && fr.bend_deg > cfg.max_bend_deg
             && fr.bend_deg <= cfg.blob_three_face_max_bend_deg;
+        // The whole scored once where the profile test needs it, for the end as well.
+        let mut whole_scored: Option<Option<Raw>> = None;
         let parts = match step {
             Some(Step { cut, sure: true }) => Some(by_plane(cut, "step")),
             Some(Step { cut, sure: false }) => {
@@ -749,26 +751,35 @@ fn object_candidates(
                 // as boxes, beat the whole by `blob_profile_cut_margin` (a part of one box is
                 // as good a cuboid as the whole, so only a misfit whole gives way); the
                 // whole then competes with its parts.
-                let profile = (cut.is_none() && !misfit && depth < cfg.blob_max_cuts)
-                    .then(|| find_profile_cut(g, &fr, &blob, cfg))
-                    .flatten();
-                if let Some(c) = profile {
-                    let whole = score_part(&blob, &fr);
-                    let (lo, hi) = by_plane(c, "profile");
-                    // Shape alone (plane fit × silhouette IoU × depth consistency): a part
-                    // may show fewer faces than the whole, which says nothing of the cut.
-                    let shape = |r: &Raw| {
-                        let f = match r.n_faces {
-                            1 => cfg.one_face_factor,
-                            2 => cfg.two_face_factor,
-                            _ => 1.0,
-                        };
-                        if f > 0.0 {
-                            r.score / f
-                        } else {
-                            0.0
-                        }
+                // Shape alone (plane fit × silhouette IoU × depth consistency): a part may
+                // show fewer faces than the whole, which says nothing of the cut.
+                let shape = |r: &Raw| {
+                    let f = match r.n_faces {
+                        1 => cfg.one_face_factor,
+                        2 => cfg.two_face_factor,
+                        _ => 1.0,
                     };
+                    if f > 0.0 {
+                        r.score / f
+                    } else {
+                        0.0
+                    }
+                };
+                let try_profile = cut.is_none()
+                    && !misfit
+                    && depth < cfg.blob_max_cuts
+                    && cfg.blob_profile_cut_min_mm > 0.0;
+                let whole = try_profile.then(|| score_part(&blob, &fr));
+                // Parts score at most 1: a whole that fits too well to be beaten is not
+                // searched for a cut; nor is one that is no box (a whole stack), whose parts
+                // would escape the seam splits that `select` makes of coarse candidates.
+                let room = whole
+                    .as_ref()
+                    .and_then(|w| w.as_ref())
+                    .is_some_and(|w| shape(w) + cfg.blob_profile_cut_margin <= 1.0);
+                let profile = room.then(|| find_profile_cut(g, &fr, &blob, cfg)).flatten();
+                if let Some(c) = profile {
+                    let (lo, hi) = by_plane(c, "profile");
                     let part_score = |p: &[u32]| {
                         frame_of(g, p, cfg)
                             .and_then(|f| score_part(p, &f))
@@ -779,30 +790,22 @@ fn object_candidates(
                         part_score(&lo).unwrap_or(0.0),
                         part_score(&hi).unwrap_or(0.0),
                     );
-                    let beat = match &whole {
-                        Some(w) => {
-                            let mean = (sa * lo.len() as f64 + sb * hi.len() as f64)
-                                / (lo.len() + hi.len()) as f64;
-                            if dbg && blob.len() > 200 {
-                                log::debug!(
-                                    "blob {b}.{pi} profile parts {sa:.2} {sb:.2} whole {:.2}",
-                                    shape(w)
-                                );
-                            }
-                            mean >= shape(w) + cfg.blob_profile_cut_margin
-                        }
-                        // No box at all (a whole stack): its parts would escape the seam
-                        // splits that `select` makes of coarse candidates.
-                        None => false,
-                    };
-                    if beat {
-                        out.extend(whole);
+                    let mean = (sa * lo.len() as f64 + sb * hi.len() as f64)
+                        / (lo.len() + hi.len()) as f64;
+                    // `room` held: the whole is a box.
+                    let w = whole.as_ref().and_then(|w| w.as_ref()).map_or(0.0, &shape);
+                    if dbg && blob.len() > 200 {
+                        log::debug!("blob {b}.{pi} profile parts {sa:.2} {sb:.2} whole {w:.2}");
+                    }
+                    if mean >= w + cfg.blob_profile_cut_margin {
+                        out.extend(whole.flatten());
                         work.push((pi, lo, depth + 1));
                         work.push((next, hi, depth + 1));
                         next += 1;
                         continue;
                     }
                 }
+                whole_scored = whole;
                 match cut {
                     Some(c) => Some(by_plane(c, "colour")),
                     None if misfit => {
@@ -849,7 +852,11 @@ fn object_candidates(
             next += 1;
             continue;
         }
-        if let Some(raw) = score_part(&blob, &fr) {
+        let raw = match whole_scored {
+            Some(w) => w,
+            None => score_part(&blob, &fr),
+        };
+        if let Some(raw) = raw {
             if !bent_box || raw.score >= cfg.blob_three_face_min_score {
                 out.push(raw);
             }
