@@ -314,11 +314,11 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<Step> {
 /// [`find_step`]): slabs across `e` are a box's full width along each other axis, so the
 /// near or far edge of the cells along another axis stays put along `e` on one box but moves
 /// by the difference of the boxes' extents where one box ends and the other begins. Returns
-/// the cut {p·e = s0} at the largest such move of more than `blob_profile_cut_min_mm` (and
-/// three grid cells), with both sides at least `blob_profile_cut_min_part_mm` long and
-/// each side's edge steady within a third of the move; unless the cells the wider side
-/// would have had past the narrower one's edge, moved along `e`, are hidden by something
-/// nearer (a box occluded in part is not two boxes).
+/// the cut {p·e = s0} at such a move of more than `blob_profile_cut_min_mm` (and three grid
+/// cells), with both sides at least `blob_profile_cut_min_part_mm` long and each side's edge
+/// steady within a third of the move, that crosses fewest of the object's faces, then moves
+/// most; unless the cells the wider side would have had past the narrower one's edge, moved
+/// along `e`, are hidden by something nearer (a box occluded in part is not two boxes).
 fn find_profile_cut(
     g: &Grid,
     fr: &Frame,
@@ -329,13 +329,13 @@ fn find_profile_cut(
     if min_move <= 0.0 || blob.len() < 4 * cfg.min_face_cells as usize {
         return None;
     }
-    let pts: Vec<(Vector3<f64>, usize)> = blob
+    let pts: Vec<Vector3<f64>> = blob
         .iter()
         .map(|&i| i as usize)
         .filter(|&i| g.z[i] > 0.0)
-        .map(|i| (v3(&g.p[i]), i))
+        .map(|i| v3(&g.p[i]))
         .collect();
-    let mut zs: Vec<f64> = pts.iter().map(|(p, _)| p.z).collect();
+    let mut zs: Vec<f64> = pts.iter().map(|p| p.z).collect();
     let mid = zs.len() / 2;
     let zmed = *zs.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
     // Edges are found to about a cell: three cells' width at the median depth at least.
@@ -370,7 +370,7 @@ fn find_profile_cut(
     let mut best: Option<(usize, f64, Vector3<f64>, f64)> = None;
     for &k in &cut_axes {
         let e = fr.full[k];
-        let mut t: Vec<f64> = pts.iter().map(|(p, _)| p.dot(&e)).collect();
+        let mut t: Vec<f64> = pts.iter().map(|p| p.dot(&e)).collect();
         let (t0, t1) = robust_range(&mut t, 0.01);
         let len = t1 - t0;
         if len < 2.0 * min_part {
@@ -385,7 +385,7 @@ fn find_profile_cut(
         for j in (0..3).filter(|&j| j != k) {
             let f = fr.full[j];
             let mut by_bin: Vec<Vec<f64>> = vec![Vec::new(); BINS];
-            for (p, _) in &pts {
+            for p in &pts {
                 if let Some(b) = bin_of(p) {
                     by_bin[b].push(p.dot(&f));
                 }
@@ -447,7 +447,7 @@ fn median_spread(v: Vec<f64>) -> (f64, f64) {
 #[allow(clippy::too_many_arguments)]
 fn hidden_past_edge(
     g: &Grid,
-    pts: &[(Vector3<f64>, usize)],
+    pts: &[Vector3<f64>],
     e: &Vector3<f64>,
     s0: f64,
     f: &Vector3<f64>,
@@ -466,7 +466,7 @@ fn hidden_past_edge(
     };
     let shift = if wide_left { 2.0 * bw } else { -2.0 * bw };
     let (mut n, mut hidden) = (0usize, 0usize);
-    for (p, _) in pts {
+    for p in pts {
         let t = p.dot(e) - s0;
         let near_cut = if wide_left {
             (-2.0 * bw..0.0).contains(&t)
