@@ -908,8 +908,9 @@ pub struct DetectConfig {
     /// of slabs that each hold it steady (two boxes of one colour stacked, or side by side or
     /// end to end, their faces flush). The whole competes with its parts. A move that the
     /// nearer depth of an occluder explains does not cut. 0 disables. Default 15 (bench, 48
-    /// views, six seeds 2026 / 7 / 11 / 3 / 5 / 13, mean AP@0.5 of the 30 rows against 0:
-    /// 0.7236 → 0.7263, tables +0.004 to +0.006, pallets −0.001, shelves −0.001).
+    /// views, six seeds 2026 / 7 / 11 / 3 / 5 / 13, mean AP@0.5 of the 30 rows against 0, at
+    /// margin 0.05: 0.7236 → 0.7263, tables +0.004 to +0.006, pallets −0.001, shelves −0.001;
+    /// 10 / 25 mm: 0.7268 / 0.7251).
     pub blob_profile_cut_min_mm: f64,
     /// Both sides of a profile cut (`blob_profile_cut_min_mm`) are at least this long along
     /// the cut axis, mm. Default 30.
@@ -918,11 +919,13 @@ pub struct DetectConfig {
     /// boxes, beat the whole by at least this much: their mean score weighted by cells, each
     /// score divided by its face-count factor (`one_face_factor`, `two_face_factor`: a part
     /// may show fewer faces than the whole); a part that is no box scores 0, and an object
-    /// that is no box as a whole is not cut. Default 0.05 (six seeds' 48 table views without
-    /// distractors and pallet views, `detect_dev` with `EST3D=1`, boxes found at 3D IoU > 0.5:
-    /// 1196 of 1488 and 995 of 1316; margin 0, and a whole that is no box cut too: 1192 and
-    /// 987; no cut: 1190 and 994; a first version that took every cut it found, the largest
-    /// move first, hidden only past the depth-jump tolerance: 1178 and 966).
+    /// that is no box as a whole is not cut. Default 0.1 (bench, 48 views, six seeds, mean
+    /// AP@0.5 of the 30 rows: 0.05 / 0.1 / 0.15 gave 0.7263 / 0.7271 / 0.7266; six seeds' 48
+    /// table views without distractors and pallet views, `detect_dev` with `EST3D=1`, boxes
+    /// found at 3D IoU > 0.5, of 1488 and 1316: 1197 and 994 at 0.1, 1196 and 995 at 0.05;
+    /// margin 0 with wholes that are no box cut too: 1192 and 987; no cut: 1190 and 994; a
+    /// first version that took every cut it found, the largest move first, hidden only past
+    /// the depth-jump tolerance: 1178 and 966).
     pub blob_profile_cut_margin: f64,
     /// A step of at least this many plane tolerances but under `blob_step_factor` is weak:
     /// the object is scored whole and cut at it as well, and the whole and the parts compete
@@ -1293,7 +1296,7 @@ impl Default for DetectConfig {
             blob_step_factor: 4.0,
             blob_profile_cut_min_mm: 15.0,
             blob_profile_cut_min_part_mm: 30.0,
-            blob_profile_cut_margin: 0.05,
+            blob_profile_cut_margin: 0.1,
             blob_weak_step_factor: 1.0,
             blob_step_min_fraction: 0.15,
             blob_support_gap_factor: 1.5,
