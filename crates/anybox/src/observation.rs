@@ -1082,14 +1082,11 @@ mod tests {
     /// A 60 × 40 px patch of a plane at `z_mm` with white noise of `sigma_mm`: depth, keep
     /// flags and points (their depth is all `normal_radius` reads of them).
     fn noisy_patch(z_mm: f64, sigma_mm: f64) -> (Vec<f32>, Vec<bool>, Vec<Point3<f64>>) {
-        use rand::{Rng, SeedableRng};
+        use crate::pipeline::test_scene::gauss;
+        use rand::SeedableRng;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         let z: Vec<f32> = (0..60 * 40)
-            .map(|i| {
-                let (a, b): (f64, f64) = (rng.random::<f64>().max(1e-12), rng.random());
-                let g = (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos();
-                (z_mm + 0.1 * (i % 60) as f64 + sigma_mm * g) as f32
-            })
+            .map(|i| (z_mm + 0.1 * (i % 60) as f64 + sigma_mm * gauss(&mut rng)) as f32)
             .collect();
         let points = z
             .iter()

@@ -431,7 +431,7 @@ pub(crate) mod test_scene {
     }
 
     /// Standard normal sample (Box–Muller).
-    fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+    pub(crate) fn gauss(rng: &mut ChaCha8Rng) -> f64 {
         let a: f64 = rng.random::<f64>().max(1e-300);
         let b: f64 = rng.random();
         (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()

@@ -477,15 +477,10 @@ fn hidden_past_edge(
             continue;
         }
         let q = p + e * shift;
-        if q.z <= 0.0 {
+        let Some(i) = g.cell_at(&q) else {
             continue;
-        }
-        let u = (g.k.fx * q.x / q.z + g.k.cx).round();
-        let v = (g.k.fy * q.y / q.z + g.k.cy).round();
-        if u < 0.0 || v < 0.0 || u >= g.w as f64 || v >= g.h as f64 {
-            continue;
-        }
-        let zi = g.z[v as usize * g.w + u as usize] as f64;
+        };
+        let zi = g.z[i] as f64;
         n += 1;
         // Nearer than the face's plane tolerance: a box standing on the face hides it from
         // its foot upwards, within a jump tolerance of the face at first.
@@ -840,7 +835,8 @@ fn object_candidates(
                         .flatten()
                         .and_then(|(lo, _)| colour_plane(g, &blob, &lo, &fr.full, cfg))
                         .map(|c| {
-                            out.extend(score_part(&blob, &fr));
+                            let whole = whole_scored.take();
+                            out.extend(whole.unwrap_or_else(|| score_part(&blob, &fr)));
                             by_plane(c, "fits, two colours")
                         }),
                 }

@@ -147,6 +147,17 @@ impl Grid {
             grow_from_mm,
         }
     }
+
+    /// The cell a camera-frame point (mm) projects into (nearest cell centre); `None` behind
+    /// the camera or outside the grid.
+    pub(crate) fn cell_at(&self, p: &nalgebra::Vector3<f64>) -> Option<usize> {
+        let q = self.k.project(&nalgebra::Point3::from(*p))?;
+        let (u, v) = (q.x.round(), q.y.round());
+        if u < 0.0 || v < 0.0 || u >= self.w as f64 || v >= self.h as f64 {
+            return None;
+        }
+        Some(v as usize * self.w + u as usize)
+    }
 }
 
 /// Per cell: the depth of the nearest surface (mm; 0 = no valid pixel) and the mean colour
@@ -630,15 +641,13 @@ mod tests {
 
     /// Cells of a gently tilted plane about 2 m away, plus white noise of `sigma_mm`.
     fn noisy_plane(w: usize, h: usize, sigma_mm: f64) -> Vec<f32> {
-        use rand::{Rng, SeedableRng};
+        use crate::pipeline::test_scene::gauss;
+        use rand::SeedableRng;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
         (0..w * h)
             .map(|i| {
                 let (u, v) = ((i % w) as f64, (i / w) as f64);
-                // Box–Muller.
-                let (a, b): (f64, f64) = (rng.random::<f64>().max(1e-12), rng.random());
-                let g = (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos();
-                (2000.0 + 0.05 * u + 0.03 * v + sigma_mm * g) as f32
+                (2000.0 + 0.05 * u + 0.03 * v + sigma_mm * gauss(&mut rng)) as f32
             })
             .collect()
     }

@@ -584,14 +584,9 @@ fn surface_ends(
     for k in 0..9 {
         let t = (k as f64 / 8.0 - 0.5) * 0.7 * side_mm;
         let p = h.centre + out * reach + along * t;
-        let Some(q) = g.k.project(&p.into()) else {
+        let Some(i) = g.cell_at(&p) else {
             continue;
         };
-        let (u, v) = (q.x.round(), q.y.round());
-        if u < 0.0 || v < 0.0 || u >= g.w as f64 || v >= g.h as f64 {
-            continue;
-        }
-        let i = v as usize * g.w + u as usize;
         n += 1;
         // A face beyond the edge, seen past it, can lie within the tolerance of the plane
         // (the front below a top's near edge): it is no continuation of the plane.

@@ -2517,7 +2517,6 @@ fn split_evidence(
             }
         }
         let carton = contains_carton(gc, &big, col, cfg);
-        let stepped = stepped_faces(g, &big, col, cfg);
         if log::log_enabled!(log::Level::Debug) {
             for (&(a, b), seam) in &between {
                 log::debug!(
@@ -2543,7 +2542,7 @@ fn split_evidence(
                     && flap_seam(g, &gc.cells, seam, &col[a].normal)
                     && same_colour(g, &col[a], &col[b], cfg))
         }) || carton
-            || stepped;
+            || stepped_faces(g, &big, col, cfg);
     }
     (split, inside, free)
 }
