@@ -1128,16 +1128,52 @@ pub(crate) fn group_candidates(
         }
     }
     // Groups are scored independently: in parallel (the order is kept).
-    let mut out: Vec<Raw> = groups
-        .into_par_iter()
+    let scored: Vec<Option<Raw>> = groups
+        .par_iter()
         .zip(open)
-        .filter_map(|(mem, open)| {
-            let mut raw = score_group(g, labels, regions, on_support, &cells, &mem, cfg)?;
+        .map(|(mem, open)| {
+            let mut raw = score_group(g, labels, regions, on_support, &cells, mem, cfg)?;
             if open {
                 raw.score *= cfg.band_open_factor;
             }
             Some(raw)
         })
+        .collect();
+    // A grouping that is no box because one of its faces is none (a top spanning two flush
+    // cartons, joined to one of their fronts) leaves its other faces in no candidate: each
+    // is read alone too, when some face of the group is no box alone.
+    let lone: Vec<Vec<Raw>> = if colour_level && cfg.lone_faces_of_failed_groups {
+        groups
+            .iter()
+            .zip(&scored)
+            .filter(|(mem, raw)| raw.is_none() && mem.len() > 1 && mem.iter().all(|f| f.len() == 1))
+            .map(|(mem, _)| mem)
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .filter_map(|mem| {
+                let alone: Vec<Option<Raw>> = mem
+                    .iter()
+                    .map(|f| {
+                        let one = vec![f.clone()];
+                        if touches_curved[f[0]] || groups.contains(&one) {
+                            return None;
+                        }
+                        score_group(g, labels, regions, on_support, &cells, &one, cfg)
+                    })
+                    .collect();
+                alone
+                    .iter()
+                    .any(Option::is_none)
+                    .then(|| alone.into_iter().flatten().collect())
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let mut out: Vec<Raw> = scored
+        .into_iter()
+        .flatten()
+        .chain(lone.into_iter().flatten())
         .collect();
     out.sort_by(|a, b| b.score.total_cmp(&a.score));
     out

@@ -489,6 +489,15 @@ pub struct DetectConfig {
     /// median in three README bench runs against 94.8 and 94.6 at 90, too near the 100 ms
     /// target on this VM).
     pub band_face_max_width_mm: f64,
+    /// Each face of a colour-level group of two or three faces that scores as no box, where
+    /// some face of it is no box alone either (a top spanning two flush cartons, joined to
+    /// one of their fronts: too wide), is scored alone too, since grouping took it from every
+    /// other candidate. Default true (bench, 48 views, seeds 2026 / 7 / 11 / 3 / 5 / 13, mean
+    /// AP@0.5 of the 30 rows 0.7271 → 0.7274: pallets 0.7582 → 0.7595, no row lower. Also at
+    /// the surface level, a lone surface face displaced cartons' colour patches in `select`:
+    /// 994 of the six seeds' 1316 pallet cartons found at 3D IoU > 0.5 by `detect_dev`,
+    /// against 999 at the colour level only and 994 without).
+    pub lone_faces_of_failed_groups: bool,
     /// Extents are measured between these quantiles of the points (and 1 − it). Default 0.02.
     pub extent_quantile: f64,
     /// Extents of a two- or three-face candidate are the union of each face's robust range
@@ -1207,6 +1216,7 @@ impl Default for DetectConfig {
             band_alternatives: true,
             band_face_alternatives: true,
             band_open_factor: 0.6,
+            lone_faces_of_failed_groups: true,
             band_face_max_width_mm: 90.0,
             extent_quantile: 0.02,
             per_face_extents: true,

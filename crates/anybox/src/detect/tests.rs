@@ -2730,3 +2730,29 @@ fn two_thin_boxes_end_to_end_split_where_their_cross_section_steps() {
         "without the profile cut",
     );
 }
+
+#[test]
+fn a_front_left_out_of_a_grouping_too_wide_for_a_box_is_read_alone() {
+    // Generated pallet scene (seed 2026, 48 scenes, scene 37: `SEED=2026 ONLY=pallet VIEW=37`
+    // with `detect_dev 48`), seen from close by: two 479 × 326 × 341 mm cartons of one colour
+    // side by side on top. Their fronts are two colour patches, their tops one (the seam
+    // between them is too faint on the top). Grouping joined the right front to the top
+    // spanning both, 870 mm wide, which is no box; the right front was then in no candidate.
+    let v = pallet_view(2026, 48, 37);
+    let boxes = scene_masks(&v, &[7], [326.0, 341.0, 479.0], 0.5);
+    let found = best_ious_detected(&v, &boxes, &DetectConfig::default());
+    assert!(found[0] > 0.7, "best mask IoU {found:.3?}");
+    // Premise: without the lone reading the carton is not found (measured 0.01).
+    let lost = best_ious_detected(
+        &v,
+        &boxes,
+        &DetectConfig {
+            lone_faces_of_failed_groups: false,
+            ..DetectConfig::default()
+        },
+    );
+    assert!(
+        lost[0] < 0.2,
+        "best mask IoU without the lone reading {lost:.3?}"
+    );
+}
