@@ -367,7 +367,7 @@ fn find_profile_cut(
     // (faces crossed, move, cut along e at s0): two boxes side by side with flush faces
     // make an L whose both cuts leave two cuboids; the one between the boxes crosses only
     // the faces they share (their coplanar tops), the other one a box's side face as well.
-    let mut best: Option<(usize, f64, Vector3<f64>, f64)> = None;
+    let mut best: Option<(usize, f64, Vector3<f64>, f64, f64)> = None;
     for &k in &cut_axes {
         let e = fr.full[k];
         let mut t: Vec<f64> = pts.iter().map(|p| p.dot(&e)).collect();
@@ -417,7 +417,7 @@ fn find_profile_cut(
                     }
                     let s0 = t0 + c as f64 * bw;
                     let nc = crossed(&e, s0);
-                    if best.is_some_and(|(bn, bm, _, _)| (bn, -bm) <= (nc, -mv)) {
+                    if best.is_some_and(|(bn, bm, _, _, _)| (bn, -bm) <= (nc, -mv)) {
                         continue;
                     }
                     // The narrower side: its edge is inside the wider one's.
@@ -425,12 +425,61 @@ fn find_profile_cut(
                     if hidden_past_edge(g, &pts, &e, s0, &f, (ml, mr), wide_left, bw, cfg) {
                         continue;
                     }
-                    best = Some((nc, mv, e, s0));
+                    best = Some((nc, mv, e, s0, 2.0 * bw));
                 }
             }
         }
     }
-    best.map(|(_, _, e, s0)| (e, s0))
+    // The cut ranked first, not the best one clear of occluders: the outline there steps
+    // where something lies across the object, and a cut elsewhere would part one box.
+    best.filter(|&(_, _, e, s0, reach)| !occluder_at_cut(g, blob, &e, s0, reach, cfg))
+        .map(|(_, _, e, s0, _)| (e, s0))
+}
+
+/// Whether something nearer than the object borders it along the cut {p·e = s0}: at least
+/// `blob_profile_cut_occluder_share` (and 3) of its cells within `reach_mm` of the cut lie
+/// next to (within two cells of) a cell of no part of it whose depth is nearer by more than
+/// the jump tolerance. A box lying across another cuts its outline where it crosses it;
+/// flush boxes' outlines step against what lies behind them.
+fn occluder_at_cut(
+    g: &Grid,
+    blob: &[u32],
+    e: &Vector3<f64>,
+    s0: f64,
+    reach_mm: f64,
+    cfg: &DetectConfig,
+) -> bool {
+    let share = cfg.blob_profile_cut_occluder_share;
+    if share <= 0.0 {
+        return false;
+    }
+    let mut members = blob.to_vec();
+    members.sort_unstable();
+    let of_blob = |j: usize| members.binary_search(&(j as u32)).is_ok();
+    let (w, h) = (g.w as isize, g.h as isize);
+    let (mut n, mut bordered) = (0usize, 0usize);
+    for &c in blob {
+        let i = c as usize;
+        let z = g.z[i];
+        if z <= 0.0 || (v3(&g.p[i]).dot(e) - s0).abs() > reach_mm {
+            continue;
+        }
+        n += 1;
+        let tol = super::grid::jump_tol(cfg, z);
+        let (u, v) = ((i % g.w) as isize, (i / g.w) as isize);
+        let near = (-2..=2isize).any(|dv| {
+            (-2..=2isize).any(|du| {
+                let (uu, vv) = (u + du, v + dv);
+                if uu < 0 || vv < 0 || uu >= w || vv >= h {
+                    return false;
+                }
+                let j = (vv * w + uu) as usize;
+                g.z[j] > 0.0 && g.z[j] < z - tol && !of_blob(j)
+            })
+        });
+        bordered += near as usize;
+    }
+    bordered >= 3 && bordered as f64 >= share * n as f64
 }
 
 /// Median of `v` and its spread (1.4826 × median absolute deviation).
