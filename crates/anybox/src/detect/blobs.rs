@@ -36,7 +36,7 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::boxes::{rectangle_axes, robust_range, score_faces, v3, Raw};
+use super::boxes::{faces_factor, rectangle_axes, robust_range, score_faces, v3, Raw};
 use super::grid::Grid;
 use super::regions::{plane_tol, NONE};
 use super::DetectConfig;
@@ -798,11 +798,7 @@ fn object_candidates(
                 // Shape alone (plane fit × silhouette IoU × depth consistency): a part may
                 // show fewer faces than the whole, which says nothing of the cut.
                 let shape = |r: &Raw| {
-                    let f = match r.n_faces {
-                        1 => cfg.one_face_factor,
-                        2 => cfg.two_face_factor,
-                        _ => 1.0,
-                    };
+                    let f = faces_factor(r.n_faces as usize, cfg);
                     if f > 0.0 {
                         r.score / f
                     } else {

@@ -1496,6 +1496,16 @@ fn score_group(
     score_faces(g, all, &faces, &normals, fit, &member, &unknown, cfg)
 }
 
+/// The factor a candidate's score carries for showing `n_faces` faces
+/// (`one_face_factor`, `two_face_factor`; 1 for three).
+pub(crate) fn faces_factor(n_faces: usize, cfg: &DetectConfig) -> f64 {
+    match n_faces {
+        1 => cfg.one_face_factor,
+        2 => cfg.two_face_factor,
+        _ => 1.0,
+    }
+}
+
 /// How much of a lone face lies in the corners of its fitted rectangle (`bx`, axis 0 the
 /// normal): the fraction of its cells whose in-plane coordinates are both beyond
 /// `CORNER` of the half-extents, over the fraction a uniformly covered rectangle puts there
@@ -1775,12 +1785,7 @@ pub(crate) fn score_faces(
     let union = hull_n + all.len() - inter;
     let iou = inter as f64 / union.max(1) as f64;
     let depth_ok = 1.0 - see_through as f64 / hull_n.max(1) as f64;
-    let faces_factor = match n_faces {
-        1 => cfg.one_face_factor,
-        2 => cfg.two_face_factor,
-        _ => 1.0,
-    };
-    let score = (fit * iou * depth_ok * faces_factor).clamp(0.0, 1.0);
+    let score = (fit * iou * depth_ok * faces_factor(n_faces, cfg)).clamp(0.0, 1.0);
     if dbg && n_faces == 1 && all.len() > 300 {
         log::debug!(
             "lone n {} iou {iou:.2} corners {:.2} framed {:.2} score {score:.2}",
