@@ -2435,11 +2435,13 @@ fn same_colour(g: &grid::Grid, a: &boxes::Raw, b: &boxes::Raw, cfg: &DetectConfi
 /// repeats ([`contains_carton`]). Returns, per coarse candidate, whether
 /// it splits and the colour-level candidates inside it (≥ 80 % of their cells; one may lie
 /// inside several overlapping coarse candidates), and the
-/// colour-level candidates inside none.
+/// colour-level candidates inside none. `planes`: one cache per colour-level candidate,
+/// shared by the calls for objects and for surfaces.
 fn split_evidence(
     g: &grid::Grid,
     coarse: &[boxes::Raw],
     col: &[boxes::Raw],
+    planes: &[FacePlane],
     cfg: &DetectConfig,
 ) -> (Vec<bool>, Vec<Vec<usize>>, Vec<usize>) {
     // Coarse candidates overlap (an object scored whole beside its parts): every coarse
@@ -2563,7 +2565,7 @@ fn split_evidence(
                     && flap_seam(g, &gc.cells, seam, &col[a].normal)
                     && same_colour(g, &col[a], &col[b], cfg))
         }) || carton
-            || stepped_faces(g, &big, col, cfg);
+            || stepped_faces(g, &big, col, planes, cfg);
     }
     (split, inside, free)
 }
@@ -2604,6 +2606,9 @@ fn face_plane_points(
     let (_, _, ssr) = plane_ssr(&kept)?;
     Some((kept, ssr))
 }
+
+/// A colour candidate's face as [`face_plane_points`] gives it, fitted once when first asked.
+type FacePlane = std::cell::OnceCell<Option<(Vec<nalgebra::Vector3<f64>>, f64)>>;
 
 /// Least-squares plane through `pts`: unit normal, centroid (mm) and sum of squared
 /// residuals (mm²); `None` from fewer than 3 points.
@@ -2648,23 +2653,28 @@ fn plane_excess_mm(
 /// [`DetectConfig::split_step_min_mm`]. A box's face is flat, so parallel patches of one
 /// carton (tape, a label, the two halves of a flap seam) fit one plane as well as two; the
 /// tops of two touching cartons of different heights, or of two stacked ones, do not.
-fn stepped_faces(g: &grid::Grid, big: &[usize], col: &[boxes::Raw], cfg: &DetectConfig) -> bool {
+/// `planes[c]` caches [`face_plane_points`] of `col[c]`: a colour candidate lies inside
+/// several coarse candidates (an object, its parts, a surface).
+fn stepped_faces(
+    g: &grid::Grid,
+    big: &[usize],
+    col: &[boxes::Raw],
+    planes: &[FacePlane],
+    cfg: &DetectConfig,
+) -> bool {
     let min = cfg.split_step_min_mm;
     if min <= 0.0 || big.len() < 2 {
         return false;
     }
     let cos_par = cfg.perpendicular_tol_deg.to_radians().cos();
-    let planes: Vec<Option<(Vec<nalgebra::Vector3<f64>>, f64)>> = big
-        .iter()
-        .map(|&c| face_plane_points(g, &col[c], &col[c].normal))
-        .collect();
+    let plane = |c: usize| planes[c].get_or_init(|| face_plane_points(g, &col[c], &col[c].normal));
     for x in 0..big.len() {
         for y in x + 1..big.len() {
             let (a, b) = (&col[big[x]], &col[big[y]]);
             if a.normal.dot(&b.normal).abs() < cos_par {
                 continue;
             }
-            let (Some((pa, sa)), Some((pb, sb))) = (&planes[x], &planes[y]) else {
+            let (Some((pa, sa)), Some((pb, sb))) = (plane(big[x]), plane(big[y])) else {
                 continue;
             };
             let Some(excess) = plane_excess_mm(pa, *sa, pb, *sb) else {
@@ -2716,8 +2726,9 @@ fn select(
     col: Vec<boxes::Raw>,
     cfg: &DetectConfig,
 ) -> (Vec<boxes::Raw>, Vec<boxes::Raw>) {
-    let (obj_split, _, _) = split_evidence(g, &objects, &col, cfg);
-    let (geo_split, inside, free) = split_evidence(g, &geo, &col, cfg);
+    let planes: Vec<FacePlane> = col.iter().map(|_| FacePlane::new()).collect();
+    let (obj_split, _, _) = split_evidence(g, &objects, &col, &planes, cfg);
+    let (geo_split, inside, free) = split_evidence(g, &geo, &col, &planes, cfg);
     let mut take_col = vec![false; col.len()];
     for (k, &s) in geo_split.iter().enumerate() {
         if s {
