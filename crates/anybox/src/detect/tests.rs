@@ -2740,20 +2740,17 @@ fn a_front_left_out_of_a_grouping_too_wide_for_a_box_is_read_alone() {
     // spanning both, 870 mm wide, which is no box; the right front was then in no candidate.
     let v = pallet_view(2026, 48, 37);
     let boxes = scene_masks(&v, &[7], [326.0, 341.0, 479.0], 0.5);
-    let found = best_ious_detected(&v, &boxes, &DetectConfig::default());
-    assert!(found[0] > 0.7, "best mask IoU {found:.3?}");
     // Premise: without the lone reading the carton is not found (measured 0.01).
-    let lost = best_ious_detected(
+    assert_found_only_with_rule(
         &v,
-        &boxes,
+        boxes[0],
         &DetectConfig {
             lone_faces_of_failed_groups: false,
             ..DetectConfig::default()
         },
-    );
-    assert!(
-        lost[0] < 0.2,
-        "best mask IoU without the lone reading {lost:.3?}"
+        0.7,
+        0.2,
+        "without the lone reading",
     );
 }
 
@@ -2765,16 +2762,16 @@ fn a_box_with_another_lying_across_it_is_not_cut_where_that_one_crosses() {
     // cut parted the carton there into two boxes.
     let v = table_d0_view_of(2026, 48, 16);
     let boxes = scene_masks(&v, &[2], [67.0, 125.0, 397.0], 0.5);
-    let found = best_ious_detected(&v, &boxes, &DetectConfig::default());
-    assert!(found[0] > 0.75, "best mask IoU {found:.3?}");
     // Premise: without the test the carton is cut (measured 0.58).
-    let cut = best_ious_detected(
+    assert_found_only_with_rule(
         &v,
-        &boxes,
+        boxes[0],
         &DetectConfig {
             blob_profile_cut_occluder_share: 0.0,
             ..DetectConfig::default()
         },
+        0.75,
+        0.65,
+        "without the test",
     );
-    assert!(cut[0] < 0.65, "best mask IoU without the test {cut:.3?}");
 }
