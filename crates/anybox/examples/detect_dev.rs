@@ -617,6 +617,38 @@ fn main() {
                             }
                         }
                         sz.sort_by(|a, b| a.total_cmp(b));
+                        // Cross-section roundness of the estimate (`roundness`).
+                        let rnd = est_d[j].as_ref().ok().and_then(|e| {
+                            let w = d.mask.width as usize;
+                            let pts: Vec<nalgebra::Point3<f64>> = d
+                                .mask
+                                .data
+                                .iter()
+                                .enumerate()
+                                .filter(|(i, m)| **m && v.depth.depth_mm[*i] > 0.0)
+                                .map(|(i, _)| {
+                                    v.intrinsics.back_project(
+                                        (i % w) as f64,
+                                        (i / w) as f64,
+                                        v.depth.depth_mm[i] as f64,
+                                    )
+                                })
+                                .collect();
+                            anybox::roundness::round_cross_section(&e.pose, &pts, 50, 0.0)
+                        });
+                        if let Some(c) = rnd {
+                            print!(
+                                " rnd {:.2} c {:.1} b {:.1} r {:.0} arc {:.0} n {}",
+                                c.ratio(),
+                                c.circle_mm,
+                                c.box_mm,
+                                c.radius_mm,
+                                c.arc_deg,
+                                c.points
+                            );
+                        } else {
+                            print!(" rnd -");
+                        }
                         println!(
                             "  d3 {name} s{s} gti {} score {:.3} faces {} px {} est {:.3} obs {} iou3d {:.2} visib {:.2} pin {pin:.2} pout {pout:.2} pinhi {pin_hi:.2} dp {dp:.3} sz {:.0} {:.0} {:.0} gsz {:.0} {:.0} {:.0}",
                             best.3,

@@ -8,7 +8,8 @@
 //! 4. [`depth_filter`] — the paper's depth-consistency filter;
 //! 5. [`refine`] and [`pose`] — robust ICP to the cuboid, confidence, ranking;
 //! 6. [`scale`] (with [`silhouette`] and [`context`]) — Algorithms 1 and 2, hidden dimensions;
-//! 7. [`pipeline`] — one mask or one frame in, boxes out. [`config`] holds every parameter.
+//! 7. [`pipeline`] — one mask or one frame in, boxes out; [`roundness`] tells a detected
+//!    tin or rod from a box by its estimate's cross-section. [`config`] holds every parameter.
 //!
 //! Around the pipeline: [`runner`] runs it over a BOP dataset or one frame and writes result
 //! records, [`overlay`] draws the boxes, [`bench`](mod@bench) compares the estimator variants.
@@ -34,6 +35,7 @@ pub mod pipeline;
 pub mod pose;
 pub mod refine;
 mod repeat;
+pub mod roundness;
 pub mod runner;
 pub mod scale;
 pub mod segmentation;

@@ -813,6 +813,41 @@ pub fn detection_score(
     }
 }
 
+/// The factor [`crate::roundness`] puts on the score of an estimate from a detected mask:
+/// [`DetectConfig::round_score_factor`](crate::detect::DetectConfig::round_score_factor)
+/// where the mask's points (valid depth) fit a circle across one of the estimate's axes by
+/// less than [`DetectConfig::round_max_ratio`](crate::detect::DetectConfig::round_max_ratio)
+/// of their distance to its rectangle, else 1.
+pub fn round_factor(
+    depth: &DepthMap,
+    intrinsics: &Intrinsics,
+    mask: &Mask,
+    est: &BoxEstimate,
+    cfg: &crate::detect::DetectConfig,
+) -> f64 {
+    if cfg.round_max_ratio <= 0.0 || depth.width != mask.width || depth.height != mask.height {
+        return 1.0;
+    }
+    let w = mask.width as usize;
+    let points: Vec<Point3<f64>> = mask
+        .data
+        .iter()
+        .zip(&depth.depth_mm)
+        .enumerate()
+        .filter(|(_, (m, z))| **m && z.is_finite() && **z > 0.0)
+        .map(|(i, (_, z))| intrinsics.back_project((i % w) as f64, (i / w) as f64, *z as f64))
+        .collect();
+    match crate::roundness::round_cross_section(
+        &est.pose,
+        &points,
+        cfg.round_min_points,
+        cfg.round_min_share,
+    ) {
+        Some(c) if c.ratio() < cfg.round_max_ratio => cfg.round_score_factor,
+        _ => 1.0,
+    }
+}
+
 /// The scores a frame's estimates from detected masks end with (`boxes`: pose and score of
 /// each, as given to [`repeat_readings`]; `repeats`: what it returned for them): a source
 /// that a [`RepeatReading::promoted`] reading outranks is scaled by

@@ -691,6 +691,28 @@ pub struct DetectConfig {
     /// 0.6723, AP@0.7 0.5086 → 0.5170; 1.5: 0.6715, 2.0: 0.6710; seeds 3 / 5, not used to
     /// choose it: 0.6448 → 0.6494).
     pub one_face_inferred_factor: f64,
+    /// A detection whose estimate's points fit a circle across one of its axes better than
+    /// its own rectangle there ([`crate::roundness`]: mean profile distance to the circle
+    /// below this fraction of that to the rectangle) is a tin or a rod read as a box: its
+    /// score is multiplied by [`DetectConfig::round_score_factor`]. 0 disables. Default 0.5
+    /// (the top-scored false positives on generated tables with 32 distractors were mostly
+    /// tins and rods, cap and side read as faces of a box; bench, 48 views per set, mean
+    /// AP@0.5 of the 30 rows of seeds 2026 / 7 / 11 / 3 / 5 / 13 against 0: 0.7280 → 0.7290,
+    /// 32 distractors 0.7415 → 0.7453, up on every seed, no row down; 0.7: 0.7293, but
+    /// tables without distractors 0.7820 → 0.7815). Thin rods (diameter under about 45 mm)
+    /// mostly pass: their profile leaves a square by less than the depth noise.
+    pub round_max_ratio: f64,
+    /// Points (with depth, in the middle half of the box along the tried axis) the
+    /// roundness test needs. Default 150: fewer leave the profile to noise.
+    pub round_min_points: usize,
+    /// ... and the share of all the mask's points (with depth) they must make. Default 0.1:
+    /// a 60 × 307 × 361 mm carton seen over its large face read round across its thin axis
+    /// from the 2.5 % of its points that noise threw off the face's rim (generated table
+    /// with 32 distractors, seed 2026, view 12).
+    pub round_min_share: f64,
+    /// Score factor of a detection read as round ([`DetectConfig::round_max_ratio`]).
+    /// Default 0.3 (kept, not dropped: a carton misread as round stays in the ranking).
+    pub round_score_factor: f64,
     /// A surface-level candidate splits into its colour-level candidates when at least this
     /// many seam cells lie next to two of them with coplanar faces (flush cartons). Default 9
     /// (bench, 48 views per set, seeds 2026 / 7 / 11, mean AP@0.5 of the 15 rows against 6,
@@ -1264,6 +1286,10 @@ impl Default for DetectConfig {
             repeat_boost_min_aspect: 0.35,
             repeat_boost_min_extent_mm: 200.0,
             one_face_inferred_factor: 1.7,
+            round_max_ratio: 0.5,
+            round_min_points: 150,
+            round_min_share: 0.1,
+            round_score_factor: 0.3,
             split_min_seam_cells: 9,
             split_flap_check: true,
             split_flap_max_colour_delta: 40.0,

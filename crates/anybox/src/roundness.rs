@@ -1,0 +1,278 @@
+//! Round things read as boxes (issue #4, part of the box-likeness score; not in the paper).
+//!
+//! In: a box estimate and the 3D points of the mask it came from (camera frame, mm).
+//! Out: [`CrossSection`], how well the points across one of the estimate's axes fit a circle
+//! against how well they fit the estimate's own rectangle.
+//!
+//! A tin or a rod standing or lying among boxes shows a flat cap and a curved side, and the
+//! detector can group those as two faces of a box. Across the cylinder's axis the side's points
+//! lie on a circle; across any axis of a true box they lie on its rectangle (one side of it, or
+//! an L of two). So each of the estimate's axes is tried as the axis of a cylinder: the points
+//! in the middle of the box along it (away from the caps) are projected onto the plane across
+//! it, a circle is fitted to them (least squares, Kåsa), and the mean distance of the points to
+//! the circle is compared with their mean distance to the rectangle of the estimate's two other
+//! extents.
+
+use anybox_geom::OrientedBox;
+use nalgebra::{Matrix3, Point3, Vector3};
+
+/// How the points across one axis of an estimate fit a circle and the estimate's rectangle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CrossSection {
+    /// The estimate's axis taken as the cylinder's (0, 1 or 2).
+    pub axis: usize,
+    /// Points used (those in the middle of the box along `axis`).
+    pub points: usize,
+    /// Mean distance of the profile (the median point per 10° of arc around the circle's
+    /// centre) to the fitted circle, mm.
+    pub circle_mm: f64,
+    /// Mean distance of the profile to the rectangle of the other two extents, mm.
+    pub box_mm: f64,
+    /// Radius of the fitted circle, mm.
+    pub radius_mm: f64,
+    /// Angle the points span around the circle's centre, degrees.
+    pub arc_deg: f64,
+}
+
+impl CrossSection {
+    /// `circle_mm / box_mm` (infinite when the points lie on the rectangle exactly).
+    pub fn ratio(&self) -> f64 {
+        if self.box_mm > 0.0 {
+            self.circle_mm / self.box_mm
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// The axis of `pose` across which `points_mm` look most like a circle (smallest
+/// [`CrossSection::ratio`]), among the axes with at least `min_points` points in the middle
+/// half of the box along them, and at least `min_share` of all the points there (the side of a
+/// tin is much of its mask; the mixed pixels along the rim of a carton's face that noise
+/// throws into the box's middle are not), a fitted radius between 0.3 and 0.9 times the larger of the two
+/// other extents (a cylinder's diameter is about its box's width; a straight face fits only a
+/// far larger circle) and an arc of at least 45°. `None` when no axis qualifies.
+pub fn round_cross_section(
+    pose: &OrientedBox,
+    points_mm: &[Point3<f64>],
+    min_points: usize,
+    min_share: f64,
+) -> Option<CrossSection> {
+    let local: Vec<Vector3<f64>> = points_mm.iter().map(|p| pose.to_local(p)).collect();
+    let s = pose.size_mm;
+    let mut best: Option<CrossSection> = None;
+    for k in 0..3 {
+        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+        let uv: Vec<(f64, f64)> = local
+            .iter()
+            .filter(|q| q[k].abs() <= 0.25 * s[k])
+            .map(|q| (q[i], q[j]))
+            .collect();
+        if uv.len() < min_points.max(3) || (uv.len() as f64) < min_share * local.len() as f64 {
+            continue;
+        }
+        let Some((cu, cv, r)) = fit_circle(&uv) else {
+            continue;
+        };
+        let wide = s[i].max(s[j]);
+        if !(0.3 * wide..=0.9 * wide).contains(&r) {
+            continue;
+        }
+        // Depth noise is per point while the shape is the same all along the axis: the
+        // median radius per 10° of arc (bins of at least 5 points) gives a profile whose
+        // noise is far below the 0.29 r by which a circle leaves its square.
+        let mut bins: Vec<Vec<f64>> = vec![Vec::new(); 36];
+        let mut angles: Vec<f64> = Vec::with_capacity(uv.len());
+        for &(u, v) in &uv {
+            let (du, dv) = (u - cu, v - cv);
+            let a = dv.atan2(du);
+            angles.push(a);
+            let b = (((a + std::f64::consts::PI) / std::f64::consts::TAU * 36.0) as usize).min(35);
+            bins[b].push((du * du + dv * dv).sqrt());
+        }
+        let (hi, hj) = (0.5 * s[i], 0.5 * s[j]);
+        let (mut circle, mut rect, mut used) = (0.0, 0.0, 0usize);
+        for (b, radii) in bins.iter_mut().enumerate() {
+            if radii.len() < 5 {
+                continue;
+            }
+            radii.sort_by(|x, y| x.total_cmp(y));
+            let rho = radii[radii.len() / 2];
+            let a = (b as f64 + 0.5) / 36.0 * std::f64::consts::TAU - std::f64::consts::PI;
+            let (u, v) = (cu + rho * a.cos(), cv + rho * a.sin());
+            circle += (rho - r).abs();
+            rect += (hi - u.abs()).abs().min((hj - v.abs()).abs());
+            used += 1;
+        }
+        if used < 3 {
+            continue;
+        }
+        let cs = CrossSection {
+            axis: k,
+            points: uv.len(),
+            circle_mm: circle / used as f64,
+            box_mm: rect / used as f64,
+            radius_mm: r,
+            arc_deg: arc_span_deg(&mut angles),
+        };
+        if cs.arc_deg < 45.0 {
+            continue;
+        }
+        if best.is_none_or(|b| cs.ratio() < b.ratio()) {
+            best = Some(cs);
+        }
+    }
+    best
+}
+
+/// Least-squares circle through 2D points (Kåsa: `u² + v² + D u + E v + F = 0` solved
+/// linearly): centre and radius, or `None` for collinear or too few points.
+fn fit_circle(uv: &[(f64, f64)]) -> Option<(f64, f64, f64)> {
+    // Centred for conditioning.
+    let n = uv.len() as f64;
+    let (mu, mv) = uv
+        .iter()
+        .fold((0.0, 0.0), |a, &(u, v)| (a.0 + u / n, a.1 + v / n));
+    let mut a = Matrix3::<f64>::zeros();
+    let mut b = Vector3::<f64>::zeros();
+    for &(u, v) in uv {
+        let (x, y) = (u - mu, v - mv);
+        let row = Vector3::new(x, y, 1.0);
+        a += row * row.transpose();
+        b -= row * (x * x + y * y);
+    }
+    let sol = a.lu().solve(&b)?;
+    let (cx, cy) = (-0.5 * sol[0], -0.5 * sol[1]);
+    let r2 = cx * cx + cy * cy - sol[2];
+    (r2.is_finite() && r2 > 0.0).then(|| (cx + mu, cy + mv, r2.sqrt()))
+}
+
+/// The smallest arc (degrees) holding all `angles` (radians, any order; sorted in place):
+/// 360° less the widest gap between neighbours.
+fn arc_span_deg(angles: &mut [f64]) -> f64 {
+    if angles.len() < 2 {
+        return 0.0;
+    }
+    angles.sort_by(|a, b| a.total_cmp(b));
+    let mut gap = angles[0] + std::f64::consts::TAU - angles[angles.len() - 1];
+    for w in angles.windows(2) {
+        gap = gap.max(w[1] - w[0]);
+    }
+    (std::f64::consts::TAU - gap).to_degrees()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Rotation3;
+
+    /// Deterministic noise in [-a, a] mm (a fixed sequence, no RNG dependence).
+    fn noise(k: usize, a: f64) -> f64 {
+        let x = ((k as f64 * 12.9898).sin() * 43758.5453).fract();
+        a * (2.0 * x.abs() - 1.0)
+    }
+
+    /// A box at 1 m, rotated about two axes so that no axis lines up with the camera's.
+    fn pose(size: [f64; 3]) -> OrientedBox {
+        let rot = Rotation3::from_euler_angles(0.3, -0.5, 0.8);
+        OrientedBox::new(rot, Vector3::new(40.0, -30.0, 1000.0), Vector3::from(size)).unwrap()
+        // positive finite sizes
+    }
+
+    /// Points given in the box's frame, moved to the camera's, with ±`a` mm noise.
+    fn to_camera(p: &OrientedBox, local: &[Vector3<f64>], a: f64) -> Vec<Point3<f64>> {
+        local
+            .iter()
+            .enumerate()
+            .map(|(k, q)| {
+                let w = p.rotation * q + p.center_mm;
+                Point3::new(
+                    w.x + noise(3 * k, a),
+                    w.y + noise(3 * k + 1, a),
+                    w.z + noise(3 * k + 2, a),
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_circle_fit_recovers_an_arc_exactly() {
+        let uv: Vec<(f64, f64)> = (0..40)
+            .map(|k| {
+                let a = (10.0 + 3.0 * k as f64).to_radians();
+                (3.0 + 40.0 * a.cos(), -2.0 + 40.0 * a.sin())
+            })
+            .collect();
+        let (cu, cv, r) = fit_circle(&uv).unwrap(); // an arc of 117°: not collinear
+        assert!((cu - 3.0).abs() < 1e-6 && (cv + 2.0).abs() < 1e-6 && (r - 40.0).abs() < 1e-6);
+        // Collinear points have no circle.
+        let line: Vec<(f64, f64)> = (0..10).map(|k| (k as f64, 2.0 * k as f64)).collect();
+        assert!(fit_circle(&line).is_none_or(|(_, _, r)| r > 1e6));
+    }
+
+    #[test]
+    fn the_arc_span_is_360_degrees_less_the_widest_gap() {
+        let deg = |v: &[f64]| -> Vec<f64> { v.iter().map(|d| d.to_radians()).collect() };
+        assert!((arc_span_deg(&mut deg(&[-170.0, 170.0])) - 20.0).abs() < 1e-9);
+        assert!((arc_span_deg(&mut deg(&[90.0, 0.0, 180.0])) - 180.0).abs() < 1e-9);
+        assert!((arc_span_deg(&mut deg(&[0.0, 90.0, 180.0, -90.0])) - 270.0).abs() < 1e-9);
+        assert_eq!(arc_span_deg(&mut deg(&[5.0])), 0.0);
+    }
+
+    #[test]
+    fn a_tins_cap_and_side_read_round_and_a_boxs_faces_do_not() {
+        // A tin of radius 40 mm and height 120 mm, seen over its side (half the circle) and
+        // its cap, ±1.5 mm noise; its box is 80 × 80 × 120 mm around it.
+        let p = pose([80.0, 80.0, 120.0]);
+        let mut tin = Vec::new();
+        for i in 0..60 {
+            let a = (90.0 + 3.0 * i as f64).to_radians();
+            for h in 0..30 {
+                tin.push(Vector3::new(
+                    40.0 * a.cos(),
+                    40.0 * a.sin(),
+                    -60.0 + 4.0 * h as f64,
+                ));
+            }
+        }
+        for i in 0..20 {
+            for j in 0..20 {
+                let (x, y) = (-38.0 + 4.0 * i as f64, -38.0 + 4.0 * j as f64);
+                if x * x + y * y < 40.0 * 40.0 {
+                    tin.push(Vector3::new(x, y, 60.0));
+                }
+            }
+        }
+        let c = round_cross_section(&p, &to_camera(&p, &tin, 1.5), 150, 0.1)
+            .expect("the tin's axis qualifies");
+        assert_eq!(c.axis, 2);
+        assert!((c.radius_mm - 40.0).abs() < 2.0, "{c:?}");
+        assert!(c.ratio() < 0.3, "{c:?}");
+        // The box itself, seen over two side faces and its top with the same noise: across
+        // no axis do its points look round.
+        let mut boxy = Vec::new();
+        for i in 0..20 {
+            for h in 0..30 {
+                let s = -40.0 + 4.0 * i as f64;
+                let z = -60.0 + 4.0 * h as f64;
+                boxy.push(Vector3::new(-40.0, s, z));
+                boxy.push(Vector3::new(s, -40.0, z));
+            }
+            for j in 0..20 {
+                boxy.push(Vector3::new(
+                    -40.0 + 4.0 * i as f64,
+                    -40.0 + 4.0 * j as f64,
+                    60.0,
+                ));
+            }
+        }
+        let b = round_cross_section(&p, &to_camera(&p, &boxy, 1.5), 150, 0.1);
+        assert!(b.is_none_or(|b| b.ratio() > 1.0), "{b:?}");
+        // Nor one face alone.
+        let face: Vec<Vector3<f64>> = boxy.iter().filter(|q| q.x == -40.0).copied().collect();
+        let f = round_cross_section(&p, &to_camera(&p, &face, 1.5), 150, 0.1);
+        assert!(f.is_none_or(|f| f.ratio() > 1.0), "{f:?}");
+        // Too few points: no reading.
+        assert!(round_cross_section(&p, &to_camera(&p, &tin[..100], 1.5), 150, 0.0).is_none());
+    }
+}
