@@ -636,6 +636,25 @@ fn main() {
                                 .collect();
                             anybox::roundness::round_cross_section(&e.pose, &pts, 50, 0.0)
                         });
+                        // Share of the mask's points whose normal is over 30° off every
+                        // face normal of the estimate.
+                        let off30 = est_d[j].as_ref().ok().and_then(|e| {
+                            let o = anybox::observation::observe(
+                                &v.depth,
+                                &v.intrinsics,
+                                &d.mask,
+                                &cfg_e.observation,
+                            )
+                            .ok()?;
+                            let c30 = 30f64.to_radians().cos();
+                            let n = o
+                                .normals
+                                .iter()
+                                .filter(|nn| (0..3).all(|k| nn.dot(&e.pose.axis(k)).abs() < c30))
+                                .count();
+                            Some(n as f64 / o.normals.len().max(1) as f64)
+                        });
+                        print!(" off30 {:.2}", off30.unwrap_or(-1.0));
                         if let Some(c) = rnd {
                             print!(
                                 " rnd {:.2} c {:.1} b {:.1} r {:.0} arc {:.0} n {}",

@@ -817,15 +817,20 @@ pub fn detection_score(
 /// [`DetectConfig::round_score_factor`](crate::detect::DetectConfig::round_score_factor)
 /// where the mask's points (valid depth) fit a circle across one of the estimate's axes by
 /// less than [`DetectConfig::round_max_ratio`](crate::detect::DetectConfig::round_max_ratio)
-/// of their distance to its rectangle, else 1.
+/// of their distance to its rectangle, or by less than
+/// [`DetectConfig::round_normals_max_ratio`](crate::detect::DetectConfig::round_normals_max_ratio)
+/// of it with at least
+/// [`DetectConfig::round_normals_min_share`](crate::detect::DetectConfig::round_normals_min_share)
+/// of the observation's normals more than 30° off every face of the estimate; else 1.
 pub fn round_factor(
     depth: &DepthMap,
     intrinsics: &Intrinsics,
     mask: &Mask,
     est: &BoxEstimate,
-    cfg: &crate::detect::DetectConfig,
+    cfg: &Config,
 ) -> f64 {
-    if cfg.round_max_ratio <= 0.0 || depth.width != mask.width || depth.height != mask.height {
+    let d = &cfg.detect;
+    if d.round_max_ratio <= 0.0 || depth.width != mask.width || depth.height != mask.height {
         return 1.0;
     }
     let w = mask.width as usize;
@@ -837,14 +842,24 @@ pub fn round_factor(
         .filter(|(_, (m, z))| **m && z.is_finite() && **z > 0.0)
         .map(|(i, (_, z))| intrinsics.back_project((i % w) as f64, (i / w) as f64, *z as f64))
         .collect();
-    match crate::roundness::round_cross_section(
+    let Some(c) = crate::roundness::round_cross_section(
         &est.pose,
         &points,
-        cfg.round_min_points,
-        cfg.round_min_share,
-    ) {
-        Some(c) if c.ratio() < cfg.round_max_ratio => cfg.round_score_factor,
-        _ => 1.0,
+        d.round_min_points,
+        d.round_min_share,
+    ) else {
+        return 1.0;
+    };
+    let round = c.ratio() < d.round_max_ratio
+        || (c.ratio() < d.round_normals_max_ratio
+            && observe(depth, intrinsics, mask, &cfg.observation).is_ok_and(|o| {
+                crate::roundness::share_off_faces(&est.pose, &o.normals, 30.0)
+                    >= d.round_normals_min_share
+            }));
+    if round {
+        d.round_score_factor
+    } else {
+        1.0
     }
 }
 

@@ -11,7 +11,8 @@
 //! in the middle of the box along it (away from the caps) are projected onto the plane across
 //! it, a circle is fitted to them (least squares, Kåsa), and the mean distance of the points to
 //! the circle is compared with their mean distance to the rectangle of the estimate's two other
-//! extents.
+//! extents. A thin rod's profile leaves a square by less than the depth noise; there the
+//! surface normals tell ([`share_off_faces`]): many of a rod's lie between its box's faces.
 
 use anybox_geom::OrientedBox;
 use nalgebra::{Matrix3, Point3, Vector3};
@@ -125,6 +126,21 @@ pub fn round_cross_section(
     best
 }
 
+/// The share of `normals` (unit vectors, camera frame) more than `off_deg` away from every
+/// face normal of `pose`: near 0 for a box's faces, a good part of a curved surface's.
+pub fn share_off_faces(pose: &OrientedBox, normals: &[Vector3<f64>], off_deg: f64) -> f64 {
+    if normals.is_empty() {
+        return 0.0;
+    }
+    let c = off_deg.to_radians().cos();
+    let axes = [pose.axis(0), pose.axis(1), pose.axis(2)];
+    let off = normals
+        .iter()
+        .filter(|n| axes.iter().all(|a| n.dot(a).abs() < c))
+        .count();
+    off as f64 / normals.len() as f64
+}
+
 /// Least-squares circle through 2D points (Kåsa: `u² + v² + D u + E v + F = 0` solved
 /// linearly): centre and radius, or `None` for collinear or too few points.
 fn fit_circle(uv: &[(f64, f64)]) -> Option<(f64, f64, f64)> {
@@ -217,6 +233,26 @@ mod tests {
         assert!((arc_span_deg(&mut deg(&[90.0, 0.0, 180.0])) - 180.0).abs() < 1e-9);
         assert!((arc_span_deg(&mut deg(&[0.0, 90.0, 180.0, -90.0])) - 270.0).abs() < 1e-9);
         assert_eq!(arc_span_deg(&mut deg(&[5.0])), 0.0);
+    }
+
+    #[test]
+    fn normals_between_faces_are_counted_off() {
+        let p = pose([80.0, 80.0, 120.0]);
+        // Normals of a cylinder's side around axis 2, every 2° over 180°: those more than
+        // 30° from both side faces' normals lie within 15° of one of the two diagonals,
+        // 60° of the 180°.
+        let side: Vec<Vector3<f64>> = (0..90)
+            .map(|i| {
+                let a = (1.0 + 2.0 * i as f64).to_radians();
+                p.rotation * Vector3::new(a.cos(), a.sin(), 0.0)
+            })
+            .collect();
+        let share = share_off_faces(&p, &side, 30.0);
+        assert!((share - 60.0 / 180.0).abs() < 0.012, "{share}");
+        // A box's face normals are all on its faces.
+        let faces: Vec<Vector3<f64>> = (0..3).map(|k| -p.axis(k)).collect();
+        assert_eq!(share_off_faces(&p, &faces, 30.0), 0.0);
+        assert_eq!(share_off_faces(&p, &[], 30.0), 0.0);
     }
 
     #[test]

@@ -123,13 +123,8 @@ pub fn run_frame(
                     crate::pipeline::detection_score(m.score, m.faces, &est, &config.detect);
                 if m.faces.is_some() {
                     // The built-in detector's masks: a tin or a rod may come as a box.
-                    rec.score *= crate::pipeline::round_factor(
-                        depth,
-                        intrinsics,
-                        &m.mask,
-                        &est,
-                        &config.detect,
-                    );
+                    rec.score *=
+                        crate::pipeline::round_factor(depth, intrinsics, &m.mask, &est, config);
                 }
                 rec.extra.insert("mask".into(), serde_json::json!(m.name));
                 if m.alternative {

@@ -710,6 +710,20 @@ pub struct DetectConfig {
     /// from the 2.5 % of its points that noise threw off the face's rim (generated table
     /// with 32 distractors, seed 2026, view 12).
     pub round_min_share: f64,
+    /// A thin rod's profile leaves its square by less than the depth noise, so its ratio
+    /// stays near 1. Below this ratio, a detection also reads as round when at least
+    /// [`DetectConfig::round_normals_min_share`] of its observation's surface normals lie
+    /// more than 30° off every face of its estimate ([`crate::roundness::share_off_faces`]).
+    /// 0 disables. Default 1.0 (bench, 48 views per set, mean AP@0.5 of the 30 rows of seeds
+    /// 2026 / 7 / 11 / 3 / 5 / 13 against 0: 0.7290 → 0.7301, 32 distractors 0.7453 →
+    /// 0.7488, up on every seed, shelves +0.0015, tables without distractors and pallets
+    /// −0.0002 and −0.0005. Chosen on an offline replay of `detect_dev`'s estimates, 48
+    /// views: 1.2 scored alike, 1.5 lowered the tables without distractors).
+    pub round_normals_max_ratio: f64,
+    /// ... the share of normals off the faces that makes it round. Default 0.2 (true boxes'
+    /// estimates: most under 0.1, a few up to 0.4 with noisy or rounded edges; tins and rods
+    /// 0.1–0.4; 0.15 took in cartons, 0.3 left out most rods).
+    pub round_normals_min_share: f64,
     /// Score factor of a detection read as round ([`DetectConfig::round_max_ratio`]).
     /// Default 0.3 (kept, not dropped: a carton misread as round stays in the ranking).
     pub round_score_factor: f64,
@@ -1289,6 +1303,8 @@ impl Default for DetectConfig {
             round_max_ratio: 0.5,
             round_min_points: 150,
             round_min_share: 0.1,
+            round_normals_max_ratio: 1.0,
+            round_normals_min_share: 0.2,
             round_score_factor: 0.3,
             split_min_seam_cells: 9,
             split_flap_check: true,
