@@ -69,9 +69,14 @@ pub fn round_cross_section(
             .filter(|q| q[k].abs() <= 0.25 * s[k])
             .map(|q| (q[i], q[j]))
             .collect();
-        if uv.len() < min_points.max(3) || (uv.len() as f64) < min_share * local.len() as f64 {
+        let n_mid = uv.len();
+        if n_mid < min_points.max(3) || (n_mid as f64) < min_share * local.len() as f64 {
             continue;
         }
+        // The profile needs a few points per 10° bin, not thousands: at most about 600 (every
+        // k-th; the counts above are of all).
+        let stride = uv.len().div_ceil(600).max(1);
+        let uv: Vec<(f64, f64)> = uv.iter().step_by(stride).copied().collect();
         let Some((cu, cv, r)) = fit_circle(&uv) else {
             continue;
         };
@@ -110,7 +115,7 @@ pub fn round_cross_section(
         }
         let cs = CrossSection {
             axis: k,
-            points: uv.len(),
+            points: n_mid,
             circle_mm: circle / used as f64,
             box_mm: rect / used as f64,
             radius_mm: r,
