@@ -9,9 +9,9 @@
 //! lie on a circle; across any axis of a true box they lie on its rectangle (one side of it, or
 //! an L of two). So each of the estimate's axes is tried as the axis of a cylinder: the points
 //! in the middle of the box along it (away from the caps) are projected onto the plane across
-//! it, a circle is fitted to them (least squares, Kåsa), and the mean distance of the points to
-//! the circle is compared with their mean distance to the rectangle of the estimate's two other
-//! extents. A thin rod's profile leaves a square by less than the depth noise; there the
+//! it, a circle is fitted to them (least squares, Kåsa), and the profile (the median radius per
+//! 10° of arc around the circle's centre) is compared with the circle and with the rectangle of
+//! the estimate's two other extents. A thin rod's profile leaves a square by less than the depth noise; there the
 //! surface normals tell ([`share_off_faces`]): many of a rod's lie between its box's faces.
 
 use anybox_geom::OrientedBox;
@@ -22,7 +22,8 @@ use nalgebra::{Matrix3, Point3, Vector3};
 pub struct CrossSection {
     /// The estimate's axis taken as the cylinder's (0, 1 or 2).
     pub axis: usize,
-    /// Points used (those in the middle of the box along `axis`).
+    /// Points in the middle half of the box along `axis` (the fit takes at most about 600 of
+    /// them, evenly).
     pub points: usize,
     /// Mean distance of the profile (the median point per 10° of arc around the circle's
     /// centre) to the fitted circle, mm.
@@ -48,11 +49,11 @@ impl CrossSection {
 
 /// The axis of `pose` across which `points_mm` look most like a circle (smallest
 /// [`CrossSection::ratio`]), among the axes with at least `min_points` points in the middle
-/// half of the box along them, and at least `min_share` of all the points there (the side of a
-/// tin is much of its mask; the mixed pixels along the rim of a carton's face that noise
-/// throws into the box's middle are not), a fitted radius between 0.3 and 0.9 times the larger of the two
-/// other extents (a cylinder's diameter is about its box's width; a straight face fits only a
-/// far larger circle) and an arc of at least 45°. `None` when no axis qualifies.
+/// half of the box along them and at least `min_share` of all the points there (the side of
+/// a tin is much of its mask; the mixed pixels that noise throws off the rim of a carton's
+/// face into the box's middle are not), a fitted radius between 0.3 and 0.9 times the larger
+/// of the two other extents (a cylinder's diameter is about its box's width; a straight face
+/// fits only a far larger circle) and an arc of at least 45°. `None` when no axis qualifies.
 pub fn round_cross_section(
     pose: &OrientedBox,
     points_mm: &[Point3<f64>],
