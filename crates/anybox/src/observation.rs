@@ -353,6 +353,35 @@ pub fn trim_support_leak(
     Some(out)
 }
 
+/// The mask's pixels with valid depth (finite, positive), row by row within its bounding box:
+/// their indices into the frame and their back-projected points, mm. Empty when the mask is
+/// empty or its size is not the depth map's.
+pub fn mask_points(
+    depth: &DepthMap,
+    intrinsics: &Intrinsics,
+    mask: &Mask,
+) -> (Vec<usize>, Vec<Point3<f64>>) {
+    let (mut idx, mut pts) = (Vec::new(), Vec::new());
+    if depth.width != mask.width || depth.height != mask.height {
+        return (idx, pts);
+    }
+    let Some((u0, v0, u1, v1)) = mask.bbox() else {
+        return (idx, pts);
+    };
+    let w = mask.width as usize;
+    for v in v0 as usize..=v1 as usize {
+        for u in u0 as usize..=u1 as usize {
+            let i = v * w + u;
+            let z = depth.depth_mm[i];
+            if mask.data[i] && z.is_finite() && z > 0.0 {
+                idx.push(i);
+                pts.push(intrinsics.back_project(u as f64, v as f64, z as f64));
+            }
+        }
+    }
+    (idx, pts)
+}
+
 /// The mask cut down to what a box would show: up to three mutually perpendicular planes of
 /// its own points (RANSAC, deterministic, tolerance as [`trim_support_leak`]'s), each holding
 /// at least `retry_min_face_fraction` of the points, each with the others' points behind it
@@ -368,19 +397,7 @@ pub fn box_faces_mask(
     if depth.width != mask.width || depth.height != mask.height {
         return None;
     }
-    let w = mask.width as usize;
-    let mut idx: Vec<usize> = Vec::new();
-    let mut pts: Vec<Point3<f64>> = Vec::new();
-    for (i, &m) in mask.data.iter().enumerate() {
-        if !m {
-            continue;
-        }
-        let d = depth.depth_mm[i];
-        if d.is_finite() && d > 0.0 {
-            idx.push(i);
-            pts.push(intrinsics.back_project((i % w) as f64, (i / w) as f64, d as f64));
-        }
-    }
+    let (idx, pts) = mask_points(depth, intrinsics, mask);
     if pts.len() < 30 {
         return None;
     }

@@ -830,22 +830,10 @@ pub fn round_factor(
     cfg: &Config,
 ) -> f64 {
     let d = &cfg.detect;
-    if d.round_max_ratio <= 0.0 || depth.width != mask.width || depth.height != mask.height {
+    if d.round_max_ratio <= 0.0 {
         return 1.0;
     }
-    let Some((u0, v0, u1, v1)) = mask.bbox() else {
-        return 1.0;
-    };
-    let w = mask.width as usize;
-    let mut points: Vec<Point3<f64>> = Vec::new();
-    for v in v0 as usize..=v1 as usize {
-        for u in u0 as usize..=u1 as usize {
-            let (m, z) = (mask.data[v * w + u], depth.depth_mm[v * w + u]);
-            if m && z.is_finite() && z > 0.0 {
-                points.push(intrinsics.back_project(u as f64, v as f64, z as f64));
-            }
-        }
-    }
+    let (_, points) = crate::observation::mask_points(depth, intrinsics, mask);
     let Some(c) = crate::roundness::round_cross_section(
         &est.pose,
         &points,

@@ -113,19 +113,27 @@ pub fn run_frame(
         &alternative,
         config,
     );
+    // The built-in detector's masks: a tin or a rod may come as a box. In parallel, as the
+    // estimates: each test back-projects its mask, and some observe it again.
+    let round: Vec<f64> = masks
+        .par_iter()
+        .zip(&results)
+        .map(|(m, r)| match r {
+            Ok(est) if m.faces.is_some() => {
+                crate::pipeline::round_factor(depth, intrinsics, &m.mask, est, config)
+            }
+            _ => 1.0,
+        })
+        .collect();
     let time_s = start.elapsed().as_secs_f64();
     let mut out = RunOutput::default();
-    for (m, r) in masks.iter().zip(results) {
+    for ((m, r), round) in masks.iter().zip(results).zip(round) {
         match r {
             Ok(est) => {
                 let mut rec = to_record(0, 0, &est, time_s, None, None);
                 rec.score =
                     crate::pipeline::detection_score(m.score, m.faces, &est, &config.detect);
-                if m.faces.is_some() {
-                    // The built-in detector's masks: a tin or a rod may come as a box.
-                    rec.score *=
-                        crate::pipeline::round_factor(depth, intrinsics, &m.mask, &est, config);
-                }
+                rec.score *= round;
                 rec.extra.insert("mask".into(), serde_json::json!(m.name));
                 if m.alternative {
                     rec.extra
