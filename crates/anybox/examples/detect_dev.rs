@@ -646,13 +646,9 @@ fn main() {
                                 &cfg_e.observation,
                             )
                             .ok()?;
-                            let c30 = 30f64.to_radians().cos();
-                            let n = o
-                                .normals
-                                .iter()
-                                .filter(|nn| (0..3).all(|k| nn.dot(&e.pose.axis(k)).abs() < c30))
-                                .count();
-                            Some(n as f64 / o.normals.len().max(1) as f64)
+                            Some(anybox::roundness::share_off_faces(
+                                &e.pose, &o.normals, 30.0,
+                            ))
                         });
                         print!(" off30 {:.2}", off30.unwrap_or(-1.0));
                         if let Some(c) = rnd {
