@@ -855,6 +855,35 @@ pub fn round_factor(
     }
 }
 
+/// The score factor of each of a frame's boxes (`boxes`: pose and score) that repeats a
+/// higher-ranked one: in score order (ties by index), a box whose 3D IoU with a box kept
+/// before it exceeds `cfg.duplicate_iou` gets `cfg.duplicate_score_factor` and is not kept
+/// (it lowers no other box); every other box gets 1. What
+/// [`crate::runner::run_detected_frame`] applies last, over detections and alternative
+/// readings alike: a second reading of one box counts as a false positive wherever it
+/// ranks, so it should rank below the first readings of other boxes.
+pub fn duplicate_factors(
+    boxes: &[(OrientedBox, f64)],
+    cfg: &crate::detect::DetectConfig,
+) -> Vec<f64> {
+    let mut order: Vec<usize> = (0..boxes.len()).collect();
+    order.sort_by(|&a, &b| boxes[b].1.total_cmp(&boxes[a].1).then(a.cmp(&b)));
+    let mut factors = vec![1.0; boxes.len()];
+    let mut kept: Vec<usize> = Vec::with_capacity(boxes.len());
+    for i in order {
+        let repeats = kept.iter().any(|&k| {
+            anybox_geom::iou::iou(&boxes[i].0, &boxes[k].0, anybox_geom::iou::IouMethod::Exact)
+                > cfg.duplicate_iou
+        });
+        if repeats {
+            factors[i] = cfg.duplicate_score_factor;
+        } else {
+            kept.push(i);
+        }
+    }
+    factors
+}
+
 /// The scores a frame's estimates from detected masks end with (`boxes`: pose and score of
 /// each, as given to [`repeat_readings`]; `repeats`: what it returned for them): a source
 /// that a [`RepeatReading::promoted`] reading outranks is scaled by
@@ -1484,6 +1513,32 @@ mod tests {
             ranked_scores(&frame, &[], &cfg),
             size_consensus_scores(&frame, &cfg)
         );
+    }
+
+    #[test]
+    fn a_box_repeating_a_kept_one_is_scaled_and_lowers_no_other() {
+        use anybox_geom::iou::{iou, IouMethod};
+        let cfg = crate::detect::DetectConfig::default();
+        let at = |x_mm: f64| OrientedBox {
+            rotation: Rotation3::identity(),
+            center_mm: Vector3::new(x_mm, 0.0, 1000.0),
+            size_mm: Vector3::new(300.0, 200.0, 200.0),
+        };
+        // b repeats a; c repeats b but not a; d is elsewhere.
+        let (a, b, c, d) = (at(0.0), at(60.0), at(120.0), at(1000.0));
+        let over =
+            |p: &OrientedBox, q: &OrientedBox| iou(p, q, IouMethod::Exact) > cfg.duplicate_iou;
+        assert!(over(&a, &b) && over(&b, &c) && !over(&a, &c) && !over(&c, &d));
+        let f = cfg.duplicate_score_factor;
+        assert!(f < 1.0);
+        // Given in another order than their scores.
+        let got = duplicate_factors(&[(c, 0.7), (d, 0.2), (a, 0.9), (b, 0.8)], &cfg);
+        assert_eq!(got, vec![1.0, 1.0, 1.0, f]);
+        // With c ranked first, b repeats c and a stays (the IoU of a and c is below).
+        let got = duplicate_factors(&[(c, 0.95), (d, 0.2), (a, 0.9), (b, 0.8)], &cfg);
+        assert_eq!(got, vec![1.0, 1.0, 1.0, f]);
+        // Equal scores: the first given is kept.
+        assert_eq!(duplicate_factors(&[(b, 0.5), (a, 0.5)], &cfg), vec![1.0, f]);
     }
 
     #[test]

@@ -175,6 +175,9 @@ pub fn run_frame(
 /// `detect.repeat_split_score_factor`. Last, the detections that the frame's other
 /// detections measure alike score higher ([`crate::pipeline::ranked_scores`]), and the
 /// readings of an unseen extent and the lattice readings are scored from those final scores.
+/// Then a box (detection or reading) that repeats a higher-scored one at 3D IoU above
+/// `detect.duplicate_iou` is scaled by `detect.duplicate_score_factor` and carries
+/// `"duplicate": true` ([`crate::pipeline::duplicate_factors`]).
 pub fn run_detected_frame(
     rgb: Option<&anybox_io::RgbImage>,
     depth: &DepthMap,
@@ -271,6 +274,24 @@ pub fn run_detected_frame(
         alts.push(reading(&l.pose, l.score, l.source, "lattice_of"));
     }
     out.estimates.extend(alts);
+    // Last, a second reading of a box ranks below the first readings of the others.
+    let (idx, scored): (Vec<usize>, Vec<(anybox_geom::OrientedBox, f64)>) = out
+        .estimates
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| r.pose().ok().map(|p| (i, (p, r.score))))
+        .unzip();
+    for (i, f) in idx
+        .into_iter()
+        .zip(crate::pipeline::duplicate_factors(&scored, &config.detect))
+    {
+        if f != 1.0 {
+            let rec = &mut out.estimates[i];
+            rec.score *= f;
+            rec.extra
+                .insert("duplicate".into(), serde_json::json!(true));
+        }
+    }
     Ok(out)
 }
 
@@ -448,6 +469,76 @@ mod tests {
             .fold(0.0, f64::max)
     }
 
+    /// Generated pallet (seed 2026, scene 17, the bench's pallet frame 17): an extended
+    /// reading repeats a carton that a higher-scored box already reads (3D IoU > 0.5) and,
+    /// unscaled, outranks a carton that no other box reads. Scaled by
+    /// `duplicate_score_factor`, it ranks below it; after the pass, no two unflagged boxes
+    /// repeat each other and every flagged one repeats an unflagged one scored higher.
+    #[test]
+    fn a_second_reading_of_a_carton_ranks_below_the_first_reading_of_another() {
+        let sc = anybox_synth::SynthConfig {
+            layout: anybox_synth::Layout::Pallet,
+            scenes: 48,
+            views: 1,
+            distractors: Some(0),
+            seed: 2026,
+            noise: anybox_synth::NoiseModel::Realistic,
+            ..anybox_synth::SynthConfig::default()
+        };
+        let v = anybox_synth::generate_view(&sc, 17, 0);
+        let on = Config::default();
+        let mut off = on.clone();
+        off.detect.duplicate_score_factor = 1.0;
+        let thr = on.detect.duplicate_iou;
+        let run = |c: &Config| {
+            run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, c).expect("a valid frame")
+        };
+        // (pose, score, flagged) of every record; the pass only rescales, so the two runs'
+        // records stay in the same order.
+        let boxes = |out: &RunOutput| -> Vec<(anybox_geom::OrientedBox, f64, bool)> {
+            out.estimates
+                .iter()
+                .map(|r| {
+                    let pose = r.pose().unwrap(); // written from valid poses
+                    (pose, r.score, r.extra.contains_key("duplicate"))
+                })
+                .collect()
+        };
+        let (with, without) = (boxes(&run(&on)), boxes(&run(&off)));
+        assert_eq!(with.len(), without.len());
+        assert!(without.iter().all(|b| !b.2));
+        let over = |p: &anybox_geom::OrientedBox, q: &anybox_geom::OrientedBox| {
+            iou(p, q, IouMethod::Exact) > thr
+        };
+        let repeats = |b: &[(anybox_geom::OrientedBox, f64, bool)], i: usize| {
+            b.iter().any(|o| o.1 > b[i].1 && over(&o.0, &b[i].0))
+        };
+        // Premise: unscaled, a repeat outranks a carton read by no higher-scored box.
+        let n = without.len();
+        let pairs: Vec<(usize, usize)> = (0..n)
+            .filter(|&d| repeats(&without, d))
+            .flat_map(|d| (0..n).map(move |t| (d, t)))
+            .filter(|&(d, t)| {
+                without[d].1 > without[t].1
+                    && !repeats(&without, t)
+                    && best_iou(&v, &without[t].0) > 0.5
+                    && !over(&without[d].0, &without[t].0)
+            })
+            .collect();
+        assert!(!pairs.is_empty(), "premise: a repeat outranks a carton");
+        for (d, t) in pairs {
+            assert!(with[d].2 && !with[t].2);
+            assert!(with[t].1 > with[d].1, "{:?} {:?}", with[t], with[d]);
+        }
+        for (i, b) in with.iter().enumerate() {
+            let kept_above = with
+                .iter()
+                .enumerate()
+                .any(|(j, o)| j != i && !o.2 && o.1 >= b.1 && over(&o.0, &b.0));
+            assert_eq!(b.2, kept_above, "box {i}: {b:?}");
+        }
+    }
+
     /// Generated table with 32 distractors (seed 2026, scene 12, `detect_dev`'s
     /// `SEED=2026 ONLY=table-d32 VIEW=12`): a tin lying on the table shows its cap and its
     /// side, which the detector reads as three faces of a box, and without the roundness test
@@ -523,7 +614,10 @@ mod tests {
     #[test]
     fn detected_frame_adds_flagged_union_of_a_split_carton() {
         let v = crate::detect::tests::table_d0_view(11);
-        let config = Config::default();
+        // The readings' own scores, before the duplicate pass rescales some (its own test:
+        // `a_second_reading_of_a_carton_ranks_below_the_first_reading_of_another`).
+        let mut config = Config::default();
+        config.detect.duplicate_score_factor = 1.0;
         let out = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &config)
             .expect("a valid frame");
         let alts: Vec<&EstimateRecord> = out
