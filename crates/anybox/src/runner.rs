@@ -461,6 +461,40 @@ mod tests {
             .expect("alternatives name primary records")
     }
 
+    /// View `scene` of a generated set as the bench's detection sets make them (seed 2026,
+    /// realistic noise, one view per scene).
+    fn generated_view(
+        layout: anybox_synth::Layout,
+        distractors: u32,
+        scene: u32,
+    ) -> anybox_synth::SynthView {
+        let sc = anybox_synth::SynthConfig {
+            layout,
+            scenes: 48,
+            views: 1,
+            distractors: Some(distractors),
+            seed: 2026,
+            noise: anybox_synth::NoiseModel::Realistic,
+            ..anybox_synth::SynthConfig::default()
+        };
+        anybox_synth::generate_view(&sc, scene, 0)
+    }
+
+    /// `run_detected_frame` on `v` with the default configuration, and with `change` made
+    /// to it.
+    fn with_and_without(
+        v: &anybox_synth::SynthView,
+        change: impl FnOnce(&mut Config),
+    ) -> (RunOutput, RunOutput) {
+        let on = Config::default();
+        let mut off = on.clone();
+        change(&mut off);
+        let run = |c: &Config| {
+            run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, c).expect("a valid frame")
+        };
+        (run(&on), run(&off))
+    }
+
     /// The best exact 3D IoU of `b` with any ground-truth box of `v`.
     fn best_iou(v: &anybox_synth::SynthView, b: &anybox_geom::OrientedBox) -> f64 {
         v.boxes
@@ -476,23 +510,9 @@ mod tests {
     /// repeat each other and every flagged one repeats an unflagged one scored higher.
     #[test]
     fn a_second_reading_of_a_carton_ranks_below_the_first_reading_of_another() {
-        let sc = anybox_synth::SynthConfig {
-            layout: anybox_synth::Layout::Pallet,
-            scenes: 48,
-            views: 1,
-            distractors: Some(0),
-            seed: 2026,
-            noise: anybox_synth::NoiseModel::Realistic,
-            ..anybox_synth::SynthConfig::default()
-        };
-        let v = anybox_synth::generate_view(&sc, 17, 0);
-        let on = Config::default();
-        let mut off = on.clone();
-        off.detect.duplicate_score_factor = 1.0;
-        let thr = on.detect.duplicate_iou;
-        let run = |c: &Config| {
-            run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, c).expect("a valid frame")
-        };
+        let v = generated_view(anybox_synth::Layout::Pallet, 0, 17);
+        let (on, off) = with_and_without(&v, |c| c.detect.duplicate_score_factor = 1.0);
+        let thr = Config::default().detect.duplicate_iou;
         // (pose, score, flagged) of every record; the pass only rescales, so the two runs'
         // records stay in the same order.
         let boxes = |out: &RunOutput| -> Vec<(anybox_geom::OrientedBox, f64, bool)> {
@@ -504,7 +524,7 @@ mod tests {
                 })
                 .collect()
         };
-        let (with, without) = (boxes(&run(&on)), boxes(&run(&off)));
+        let (with, without) = (boxes(&on), boxes(&off));
         assert_eq!(with.len(), without.len());
         assert!(without.iter().all(|b| !b.2));
         let over = |p: &anybox_geom::OrientedBox, q: &anybox_geom::OrientedBox| {
@@ -547,23 +567,8 @@ mod tests {
     /// carton found; the cartons keep theirs.
     #[test]
     fn a_tin_read_as_a_box_ranks_below_the_cartons() {
-        let sc = anybox_synth::SynthConfig {
-            layout: anybox_synth::Layout::Table,
-            scenes: 48,
-            views: 1,
-            distractors: Some(32),
-            seed: 2026,
-            noise: anybox_synth::NoiseModel::Realistic,
-            ..anybox_synth::SynthConfig::default()
-        };
-        let v = anybox_synth::generate_view(&sc, 12, 0);
-        let on = Config::default();
-        let mut off = on.clone();
-        off.detect.round_max_ratio = 0.0;
-        let run = |c: &Config| {
-            run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, c).expect("a valid frame")
-        };
-        let (with, without) = (run(&on), run(&off));
+        let v = generated_view(anybox_synth::Layout::Table, 32, 12);
+        let (with, without) = with_and_without(&v, |c| c.detect.round_max_ratio = 0.0);
         // Primary records: (mask name, score, best 3D IoU with a GT box).
         let primary = |out: &RunOutput| -> Vec<(serde_json::Value, f64, f64)> {
             out.estimates
@@ -592,7 +597,7 @@ mod tests {
             tin.1
         );
         let tin_with = a.iter().find(|x| x.0 == tin.0).expect("the same detection");
-        let f = on.detect.round_score_factor;
+        let f = Config::default().detect.round_score_factor;
         assert!(
             (tin_with.1 - f * tin.1).abs() < 1e-9,
             "{} vs {}",
