@@ -730,14 +730,15 @@ pub struct DetectConfig {
     /// A box of a frame's output (detection or alternative reading) whose 3D IoU with a
     /// higher-scored box exceeds this repeats it ([`crate::pipeline::duplicate_factors`]).
     /// Default 0.5, the IoU at which AP@0.5 matches a box: two boxes above it with each
-    /// other can rarely both match (0.45: 0.7336, 0.55: 0.7341 in the replay of
-    /// [`DetectConfig::duplicate_score_factor`]).
+    /// other can rarely both match (with a factor of 0.5, in the replay of
+    /// [`DetectConfig::duplicate_score_factor`]: 0.45 0.7336, 0.5 0.7342, 0.55 0.7341).
     pub duplicate_iou: f64,
     /// Score factor of a box that repeats a higher-scored one ([`DetectConfig::duplicate_iou`]).
     /// 1 disables. Default 0.3 (kept, not dropped: where the higher one is wrong, the repeat
-    /// may be the right reading; dropping lowered AP. Replay of the bench's records, 48
-    /// views per set, mean AP@0.5 of the 30 rows of seeds 2026 / 7 / 11 / 3 / 5 / 13: 0.7328
-    /// → 0.7345, every layout up; 0.5: 0.7342, 0: 0.7310).
+    /// may be the right reading. Bench, 48 views per set, mean AP@0.5 of the 30 rows of seeds
+    /// 2026 / 7 / 11 / 3 / 5 / 13 against 1: 0.7327 → 0.7345, every layout up; offline
+    /// replay of the same records, the `rank_replay` example: 0.7328 → 0.7345, 0.5 0.7342,
+    /// 0 (dropped) 0.7310).
     pub duplicate_score_factor: f64,
     /// A surface-level candidate splits into its colour-level candidates when at least this
     /// many seam cells lie next to two of them with coplanar faces (flush cartons). Default 9
