@@ -619,21 +619,8 @@ fn main() {
                         sz.sort_by(|a, b| a.total_cmp(b));
                         // Cross-section roundness of the estimate (`roundness`).
                         let rnd = est_d[j].as_ref().ok().and_then(|e| {
-                            let w = d.mask.width as usize;
-                            let pts: Vec<nalgebra::Point3<f64>> = d
-                                .mask
-                                .data
-                                .iter()
-                                .enumerate()
-                                .filter(|(i, m)| **m && v.depth.depth_mm[*i] > 0.0)
-                                .map(|(i, _)| {
-                                    v.intrinsics.back_project(
-                                        (i % w) as f64,
-                                        (i / w) as f64,
-                                        v.depth.depth_mm[i] as f64,
-                                    )
-                                })
-                                .collect();
+                            let (_, pts) =
+                                anybox::observation::mask_points(&v.depth, &v.intrinsics, &d.mask);
                             anybox::roundness::round_cross_section(&e.pose, &pts, 50, 0.0)
                         });
                         // Share of the mask's points whose normal is over 30° off every
