@@ -150,7 +150,8 @@ fn cut_patch(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<(Vec<u32>, u
         u1 = u1.max(u);
         v1 = v1.max(v);
     }
-    // Local window with a one-cell rim: the seam cells bordering the patch lie there.
+    // Local window with a one-cell rim: the seam cells bordering the patch lie there (those
+    // flanked by it lie inside its bounding box).
     let (u0, v0) = (u0.saturating_sub(1), v0.saturating_sub(1));
     let (u1, v1) = ((u1 + 1).min(w - 1), (v1 + 1).min(g.h - 1));
     let (bw, bh) = (u1 - u0 + 1, v1 - v0 + 1);
@@ -159,17 +160,36 @@ fn cut_patch(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<(Vec<u32>, u
         let (u, v) = (i as usize % w - u0, i as usize / w - v0);
         inside[v * bw + u] = true;
     }
-    // Seam cells touching the patch (8-neighbours).
+    // Seam cells touching the patch (8-neighbours), and those with patch cells on both sides
+    // within `reach` cells along a row, a column or a diagonal: a joint inside the patch
+    // whose neighbouring cells are unlabelled too. (Every cell within `reach` would add the
+    // seams along the patch's rim, and lost on the bench.)
+    let reach = cfg.seam_line_reach_cells.max(1) as isize;
+    let at = |u: isize, v: isize| {
+        u >= 0
+            && v >= 0
+            && (u as usize) < bw
+            && (v as usize) < bh
+            && inside[v as usize * bw + u as usize]
+    };
     let mut seam = Vec::new();
     for v in 0..bh {
         for u in 0..bw {
             if !g.seam[(v + v0) * w + u + u0] || inside[v * bw + u] {
                 continue;
             }
-            let touches = (v.saturating_sub(1)..=(v + 1).min(bh - 1)).any(|vv| {
-                (u.saturating_sub(1)..=(u + 1).min(bw - 1)).any(|uu| inside[vv * bw + uu])
-            });
-            if touches {
+            let (ui, vi) = (u as isize, v as isize);
+            let touches = (-1..=1).any(|dv| (-1..=1).any(|du| at(ui + du, vi + dv)));
+            let flanked = || {
+                [(1isize, 0isize), (0, 1), (1, 1), (1, -1)]
+                    .iter()
+                    .any(|&(du, dv)| {
+                        let side =
+                            |s: isize| (1..=reach).any(|d| at(ui + s * d * du, vi + s * d * dv));
+                        side(1) && side(-1)
+                    })
+            };
+            if touches || flanked() {
                 seam.push((u as f32, v as f32));
             }
         }
@@ -402,6 +422,35 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_joint_with_unlabelled_cells_beside_it_cuts_the_patch() {
+        // Vertical joint at u = 30 with a 4-cell gap in the middle, where the patch leaks
+        // across; along the joint the cells on either side are unlabelled too (as where a
+        // carton's edge blurs the colour), so most seam cells lie two cells from the patch.
+        let on = |u: usize, v: usize| u == 30 && ((2..18).contains(&v) || (22..38).contains(&v));
+        let (g, mut labels) = leaked(on);
+        for v in 0..H {
+            for u in 29..=31 {
+                if on(30, v) {
+                    labels[v * W + u] = NONE;
+                }
+            }
+        }
+        // Premise: only the seam cells at the gap's and rims' ends touch the patch, too few
+        // for a line.
+        let near_only = DetectConfig {
+            seam_line_reach_cells: 1,
+            ..DetectConfig::default()
+        };
+        assert_uncut(&g, labels.clone(), &near_only);
+        let n = cut_along_seam_lines(&g, &mut labels, 1, &DetectConfig::default());
+        assert_eq!(n, 2);
+        let (left, right) = sides(&labels, 30);
+        assert_eq!(left.len(), 1, "left side in one piece: {left:?}");
+        assert_eq!(right.len(), 1, "right side in one piece: {right:?}");
+        assert_ne!(left, right);
     }
 
     #[test]
