@@ -346,21 +346,32 @@ fn close_seam_gaps(seam: &[bool], w: usize, h: usize, r: usize) -> Vec<bool> {
 /// The rule of [`close_seam_gaps`] at cell `(u, v)`: seam cells within `r` on both sides along
 /// a row, a column or a diagonal, and none beside it across that direction.
 fn bridges_gap(seam: &[bool], w: usize, h: usize, r: usize, u: usize, v: usize) -> bool {
-    let at = |u: isize, v: isize| {
-        u >= 0
-            && v >= 0
-            && (u as usize) < w
-            && (v as usize) < h
-            && seam[v as usize * w + u as usize]
-    };
+    let at = |u: isize, v: isize| flag_at(seam, w, h, u, v);
     let (u, v) = (u as isize, v as isize);
-    [(1isize, 0isize), (0, 1), (1, 1), (1, -1)]
-        .iter()
-        .any(|&(du, dv)| {
-            let side = |s: isize| (1..=r as isize).any(|d| at(u + s * d * du, v + s * d * dv));
-            let thin = !(at(u - dv, v + du) || at(u + dv, v - du));
-            thin && side(1) && side(-1)
-        })
+    LINE_DIRS.iter().any(|&(du, dv)| {
+        let thin = !(at(u - dv, v + du) || at(u + dv, v - du));
+        thin && on_both_sides(at, u, v, r, (du, dv))
+    })
+}
+
+/// A row, a column and the two diagonals, as cell steps `(du, dv)`.
+pub(crate) const LINE_DIRS: [(isize, isize); 4] = [(1, 0), (0, 1), (1, 1), (1, -1)];
+
+/// `flags[v * w + u]` of a `w` × `h` grid of flags; false outside it.
+pub(crate) fn flag_at(flags: &[bool], w: usize, h: usize, u: isize, v: isize) -> bool {
+    u >= 0 && v >= 0 && (u as usize) < w && (v as usize) < h && flags[v as usize * w + u as usize]
+}
+
+/// Whether `at` holds within `r` cells of `(u, v)` on both sides along the step `(du, dv)`.
+pub(crate) fn on_both_sides(
+    at: impl Fn(isize, isize) -> bool,
+    u: isize,
+    v: isize,
+    r: usize,
+    (du, dv): (isize, isize),
+) -> bool {
+    let side = |s: isize| (1..=r as isize).any(|d| at(u + s * d * du, v + s * d * dv));
+    side(1) && side(-1)
 }
 
 fn points(z: &[f32], w: usize, h: usize, k: &Intrinsics) -> Vec<[f32; 3]> {

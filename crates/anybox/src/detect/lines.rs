@@ -14,7 +14,7 @@
 
 use rayon::prelude::*;
 
-use super::grid::Grid;
+use super::grid::{flag_at, on_both_sides, Grid, LINE_DIRS};
 use super::regions::{compact_labels, Dsu, NONE};
 use super::DetectConfig;
 
@@ -164,14 +164,8 @@ fn cut_patch(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<(Vec<u32>, u
     // within `reach` cells along a row, a column or a diagonal: a joint inside the patch
     // whose neighbouring cells are unlabelled too. (Every cell within `reach` would add the
     // seams along the patch's rim, and lost on the bench.)
-    let reach = cfg.seam_line_reach_cells.max(1) as isize;
-    let at = |u: isize, v: isize| {
-        u >= 0
-            && v >= 0
-            && (u as usize) < bw
-            && (v as usize) < bh
-            && inside[v as usize * bw + u as usize]
-    };
+    let reach = cfg.seam_line_reach_cells.max(1) as usize;
+    let at = |u: isize, v: isize| flag_at(&inside, bw, bh, u, v);
     let mut seam = Vec::new();
     for v in 0..bh {
         for u in 0..bw {
@@ -181,13 +175,9 @@ fn cut_patch(g: &Grid, cells: &[u32], cfg: &DetectConfig) -> Option<(Vec<u32>, u
             let (ui, vi) = (u as isize, v as isize);
             let touches = (-1..=1).any(|dv| (-1..=1).any(|du| at(ui + du, vi + dv)));
             let flanked = || {
-                [(1isize, 0isize), (0, 1), (1, 1), (1, -1)]
+                LINE_DIRS
                     .iter()
-                    .any(|&(du, dv)| {
-                        let side =
-                            |s: isize| (1..=reach).any(|d| at(ui + s * d * du, vi + s * d * dv));
-                        side(1) && side(-1)
-                    })
+                    .any(|&d| on_both_sides(at, ui, vi, reach, d))
             };
             if touches || flanked() {
                 seam.push((u as f32, v as f32));
