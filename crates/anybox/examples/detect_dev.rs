@@ -1179,21 +1179,7 @@ fn main() {
                             (bi, bk) = (i, k);
                         }
                     }
-                    let kind = [
-                        "lattice_of",
-                        "hidden_of",
-                        "parts",
-                        "split_of",
-                        "extended_from",
-                    ]
-                    .iter()
-                    .find(|k| r.extra.contains_key(**k))
-                    .copied()
-                    .unwrap_or(if r.extra.contains_key("alternative") {
-                        "alt"
-                    } else {
-                        "det"
-                    });
+                    let kind = anybox::runner::record_kind(r);
                     println!(
                         "  rec {name} s{s} {kind} score {:.3} best {bi:.2} gt {bk} vis {:.2} size {:.0}x{:.0}x{:.0}",
                         r.score, v.boxes[bk].visib_fract, p.size_mm.x, p.size_mm.y, p.size_mm.z

@@ -40,23 +40,6 @@ struct Frame {
     recs: Vec<Rec>,
 }
 
-const KINDS: [&str; 6] = [
-    "lattice_of",
-    "hidden_of",
-    "parts",
-    "split_of",
-    "extended_from",
-    "outranked",
-];
-
-fn kind(r: &anybox_io::results::EstimateRecord) -> String {
-    match KINDS.iter().find(|k| r.extra.contains_key(**k)) {
-        Some(k) => k.to_string(),
-        None if r.extra.contains_key("alternative") => "alt".into(),
-        None => "det".into(),
-    }
-}
-
 fn dump(seed: u64, frames: usize, cfg: &Config) -> Vec<Frame> {
     let mut out = Vec::new();
     for set in anybox::bench::detection_sets(seed, frames) {
@@ -78,7 +61,7 @@ fn dump(seed: u64, frames: usize, cfg: &Config) -> Vec<Frame> {
                         Some(Rec {
                             pose: r.pose().ok()?,
                             score: r.score,
-                            kind: kind(r),
+                            kind: anybox::runner::record_kind(r).to_string(),
                         })
                     })
                     .collect();
@@ -171,7 +154,11 @@ fn variants() -> Vec<(String, Scoring)> {
         "duplicates, × 0.5, readings only".into(),
         duplicates(c, true),
     ));
-    for k in KINDS.iter().copied().chain(["alt", "det"]) {
+    for k in anybox::runner::RECORD_KIND_KEYS
+        .iter()
+        .copied()
+        .chain(["alt", "det"])
+    {
         for factor in [0.6, 1.5] {
             let dup = duplicates(d.clone(), false);
             v.push((

@@ -302,6 +302,29 @@ fn observed_axes(rec: &EstimateRecord) -> Option<[bool; 3]> {
     b.try_into().ok()
 }
 
+/// The keys that name the kind of a record of [`run_detected_frame`]'s output, in the order
+/// [`record_kind`] looks for them: a reading's source (`lattice_of`, `hidden_of`, `parts`,
+/// `split_of`, `extended_from`), then a detection demoted below its reading (`outranked`).
+pub const RECORD_KIND_KEYS: [&str; 6] = [
+    "lattice_of",
+    "hidden_of",
+    "parts",
+    "split_of",
+    "extended_from",
+    "outranked",
+];
+
+/// The kind of a record of [`run_detected_frame`]'s output: the first of
+/// [`RECORD_KIND_KEYS`] it carries, else `"alt"` for the detector's own alternative (flagged
+/// `"alternative"` only), else `"det"` for a detection.
+pub fn record_kind(r: &EstimateRecord) -> &'static str {
+    match RECORD_KIND_KEYS.iter().find(|k| r.extra.contains_key(**k)) {
+        Some(k) => k,
+        None if r.extra.contains_key("alternative") => "alt",
+        None => "det",
+    }
+}
+
 /// The record of an alternative reading (scene and image id 0, as the frame's records):
 /// `pose`, `score`, the frame's `time_s`, `"alternative": true` and `keys` naming the
 /// detections it was read from.
@@ -493,6 +516,33 @@ mod tests {
             run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, c).expect("a valid frame")
         };
         (run(&on), run(&off))
+    }
+
+    #[test]
+    fn record_kinds_follow_their_keys() {
+        let pose = anybox_geom::OrientedBox {
+            rotation: nalgebra::Rotation3::identity(),
+            center_mm: nalgebra::Vector3::new(0.0, 0.0, 1000.0),
+            size_mm: nalgebra::Vector3::new(100.0, 100.0, 100.0),
+        };
+        let det = EstimateRecord::from_pose(0, 0, &pose, 0.5, 0.0, None);
+        assert_eq!(record_kind(&det), "det");
+        assert_eq!(record_kind(&alternative_record(&pose, 0.1, 0.0, [])), "alt");
+        for k in RECORD_KIND_KEYS {
+            let r = alternative_record(&pose, 0.1, 0.0, [(k, serde_json::json!("m"))]);
+            assert_eq!(record_kind(&r), k);
+        }
+        // An outranked detection carries `alternative` too; a reading's own key comes first.
+        let r = alternative_record(
+            &pose,
+            0.1,
+            0.0,
+            [
+                ("outranked", serde_json::json!("split")),
+                ("parts", serde_json::json!([])),
+            ],
+        );
+        assert_eq!(record_kind(&r), "parts");
     }
 
     /// The best exact 3D IoU of `b` with any ground-truth box of `v`.
