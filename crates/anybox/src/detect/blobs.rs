@@ -236,7 +236,8 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<Step> {
             .iter()
             .map(|&i| (v3(&g.p[i as usize]).dot(ax), i))
             .collect();
-        t.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // The face's cells ascend, so ties by cell give a stable sort's order, unstably.
+        t.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let zmed = g.z[t[t.len() / 2].1 as usize] as f64;
         let tol = plane_tol(cfg, zmed);
         let gap_tol = cfg.blob_step_factor * tol;
@@ -592,7 +593,7 @@ fn find_colour_cut(
     let mut best: Option<(f64, Vector3<f64>, f64)> = None;
     for e in &fr.full {
         let mut all: Vec<f64> = blob.iter().map(|&i| v3(&g.p[i as usize]).dot(e)).collect();
-        all.sort_by(f64::total_cmp);
+        all.sort_unstable_by(f64::total_cmp);
         // Each face's cells along e (faces of other orientations shade differently): their
         // positions and colour prefix sums.
         let faces: Vec<(Vec<f64>, Vec<Vector3<f64>>)> = fr
@@ -604,7 +605,8 @@ fn find_colour_cut(
                     .iter()
                     .map(|&i| (v3(&g.p[i as usize]).dot(e), i))
                     .collect();
-                t.sort_by(|a, b| a.0.total_cmp(&b.0));
+                // Ascending cells: ties by cell keep a stable sort's order.
+                t.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
                 let mut sum = Vec::with_capacity(t.len() + 1);
                 sum.push(Vector3::zeros());
                 for (k, c) in t.iter().enumerate() {
@@ -1041,7 +1043,8 @@ fn colour_plane(
             .zip(&in_lo)
             .map(|(i, &l)| (v3(&g.p[*i as usize]).dot(e), l))
             .collect();
-        t.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Cuts fall only between distinct values: the order of ties does not matter.
+        t.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         // Errors with the cluster below the cut: its cells above plus the others below.
         let mut lo_above = n_lo;
         let mut other_below = 0usize;
