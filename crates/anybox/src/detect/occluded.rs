@@ -254,8 +254,21 @@ fn along(
         let n: usize = b.iter().sum();
         n > 0 && b[k] as f64 >= cfg.occluded_min_front * n as f64
     };
+    // Before the occluder, cells on the surface but claimed (the candidate's own rim past its
+    // fitted end, a support) say nothing of it: with `occluded_lead_skips_claimed` they are
+    // left out of the leading bins' shares.
+    let lead = |b: &[usize; 4]| {
+        if cfg.occluded_lead_skips_claimed {
+            [b[0], b[1], 0, b[3]]
+        } else {
+            *b
+        }
+    };
     let mut k = 0;
-    while k < n_bins && (mostly(&bins[k], 0) || bins[k].iter().sum::<usize>() == 0) {
+    while k < n_bins && {
+        let b = lead(&bins[k]);
+        mostly(&b, 0) || b.iter().sum::<usize>() == 0
+    } {
         k += 1;
     }
     if k == 0 || k == n_bins || !mostly(&bins[k], 1) {

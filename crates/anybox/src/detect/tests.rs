@@ -2550,6 +2550,26 @@ fn a_box_seen_again_in_its_occluders_shadow_is_joined() {
 }
 
 #[test]
+fn a_box_whose_own_rim_lies_before_its_occluder_is_joined() {
+    // Generated table scene (seed 2026, 48 scenes, scene 6: `SEED=2026 ONLY=table-d0 VIEW=6`
+    // with `detect_dev 48`): a 42 × 49 × 345 mm box lying 1.4 m away, a box standing before
+    // its middle. Right past the near piece's fitted end, before the occluder, lie a few of
+    // its own rim cells: the first 10 mm bin was neither mostly in front nor mostly on the
+    // surface, so no occluder was seen and the far piece was left out (3D IoU 0.28).
+    let v = table_d0_view_of(2026, 48, 6);
+    let gt = scene_box(&v, 2, [42.0, 49.0, 345.0], 0.7);
+    let best_iou3d = |cfg: &DetectConfig| best_detection_estimated(&v, gt, cfg).1;
+    let with = best_iou3d(&DetectConfig::default());
+    assert!(with > 0.45, "3D IoU with the rim left out {with:.2}");
+    // Premise: with the rim's cells counted, the far piece is left out.
+    let without = best_iou3d(&DetectConfig {
+        occluded_lead_skips_claimed: false,
+        ..DetectConfig::default()
+    });
+    assert!(without < 0.35, "3D IoU with the rim counted {without:.2}");
+}
+
+#[test]
 fn a_layer_seen_from_above_with_a_carton_on_it_is_no_support() {
     // Generated pallet (seed 13, 48 scenes, scene 39: `SEED=13 ONLY=pallet VIEW=39` with
     // `detect_dev 48`), seen from high above: a layer of 182 × 234 × 399 mm cartons, flush,
