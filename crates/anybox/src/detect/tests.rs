@@ -2533,20 +2533,38 @@ fn a_box_seen_again_in_its_occluders_shadow_is_joined() {
     // it in two. The piece past the occluder lies in its shadow, darker than the near piece
     // by more than `occluded_colour_max` RGB levels, so it was not taken as the same box, and
     // the estimate from the near piece was too short (3D IoU 0.28).
-    let v = table_d0_view_of(3, 48, 34);
-    let gt = scene_box(&v, 0, [52.0, 151.0, 212.0], 0.6);
-    let best_iou3d = |cfg: &DetectConfig| best_detection_estimated(&v, gt, cfg).1;
-    let with = best_iou3d(&DetectConfig::default());
-    assert!(with > 0.7, "3D IoU with the shading allowance {with:.2}");
     // Premise: with the colours compared as they are, the far piece is left out.
-    let without = best_iou3d(&DetectConfig {
-        occluded_shading: false,
-        ..DetectConfig::default()
-    });
-    assert!(
-        without < 0.4,
-        "3D IoU without the shading allowance {without:.2}"
+    assert_table_box_joined_only_with_rule(
+        (3, 34, 0),
+        [52.0, 151.0, 212.0],
+        0.6,
+        &DetectConfig {
+            occluded_shading: false,
+            ..DetectConfig::default()
+        },
+        (0.7, 0.4),
+        "the shading allowance",
     );
+}
+
+/// Generated table view `scene` of `seed` (48 scenes, no distractors): the best detection's
+/// estimate of scene box `k` (sorted sizes `sorted_mm`, visible fraction above `min_visib`)
+/// reaches 3D IoU `with_min` with the default config and stays below `without_max` with
+/// `without` (the rule named `what` turned off).
+fn assert_table_box_joined_only_with_rule(
+    (seed, scene, k): (u64, u32, usize),
+    sorted_mm: [f64; 3],
+    min_visib: f64,
+    without: &DetectConfig,
+    (with_min, without_max): (f64, f64),
+    what: &str,
+) {
+    let v = table_d0_view_of(seed, 48, scene);
+    let gt = scene_box(&v, k, sorted_mm, min_visib);
+    let with = best_detection_estimated(&v, gt, &DetectConfig::default()).1;
+    assert!(with > with_min, "3D IoU with {what} {with:.2}");
+    let off = best_detection_estimated(&v, gt, without).1;
+    assert!(off < without_max, "3D IoU without {what} {off:.2}");
 }
 
 #[test]
@@ -2556,17 +2574,18 @@ fn a_box_whose_own_rim_lies_before_its_occluder_is_joined() {
     // its middle. Right past the near piece's fitted end, before the occluder, lie a few of
     // its own rim cells: the first 10 mm bin was neither mostly in front nor mostly on the
     // surface, so no occluder was seen and the far piece was left out (3D IoU 0.28).
-    let v = table_d0_view_of(2026, 48, 6);
-    let gt = scene_box(&v, 2, [42.0, 49.0, 345.0], 0.7);
-    let best_iou3d = |cfg: &DetectConfig| best_detection_estimated(&v, gt, cfg).1;
-    let with = best_iou3d(&DetectConfig::default());
-    assert!(with > 0.45, "3D IoU with the rim left out {with:.2}");
     // Premise: with the rim's cells counted, the far piece is left out.
-    let without = best_iou3d(&DetectConfig {
-        occluded_lead_skips_claimed: false,
-        ..DetectConfig::default()
-    });
-    assert!(without < 0.35, "3D IoU with the rim counted {without:.2}");
+    assert_table_box_joined_only_with_rule(
+        (2026, 6, 2),
+        [42.0, 49.0, 345.0],
+        0.7,
+        &DetectConfig {
+            occluded_lead_skips_claimed: false,
+            ..DetectConfig::default()
+        },
+        (0.45, 0.35),
+        "the rim left out",
+    );
 }
 
 #[test]
