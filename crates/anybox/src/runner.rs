@@ -157,8 +157,9 @@ pub fn run_frame(
 /// records carry scene and image id 0): detection, the
 /// estimator on every detection ([`Config::for_detected_masks`]), then its alternative
 /// readings ([`crate::pipeline::alternative_readings`]): the unions of split
-/// cartons ([`crate::pipeline::tiled_unions`], and [`crate::pipeline::gap_unions`] across a
-/// hidden gap), and the readings of an estimate by another's size
+/// cartons ([`crate::pipeline::tiled_unions`], [`crate::pipeline::gap_unions`] across a
+/// hidden gap, and [`crate::pipeline::corner_unions`] of a top and a front read apart), and
+/// the readings of an estimate by another's size
 /// ([`crate::pipeline::repeat_readings`]: the copies of a carton that a merged estimate
 /// repeats, a short estimate extended), and other readings of an estimate's one unseen extent
 /// ([`crate::pipeline::hidden_extent_readings`]). Alternative readings carry `"alternative": true` in
@@ -666,6 +667,35 @@ mod tests {
     /// its flap seam: the run returns the union as an alternative, flagged, scored below both
     /// parts, and closer to the carton than either part. (View 12's carton, used before, is
     /// now found whole: `detect.band_face_alternatives`.)
+    /// Seed 2026's 48-view table view 8 (`SEED=2026 ONLY=table-d0 VIEW=8 RUNFRAME='{}'
+    /// detect_dev 48`): a 71 × 48 × 106 mm box whose top and front the detector returns as two
+    /// detections, estimated 70 × 52 × 27 and 68 × 27 × 87 mm (3D IoU 0.24 and 0.43). Their
+    /// corner union ([`crate::pipeline::corner_unions`]) finds the box.
+    #[test]
+    fn detected_frame_joins_a_top_and_a_front_read_apart() {
+        let v = crate::detect::tests::table_d0_view_of(2026, 48, 8);
+        let gt = &v.boxes[4];
+        assert!((gt.pose.volume_mm3() - 71.0 * 48.0 * 106.0).abs() < 0.02 * gt.pose.volume_mm3());
+        let (on, off) = with_and_without(&v, |c| c.detect.corner_union_max_shared = 0.0);
+        let fit = |r: &EstimateRecord| {
+            let p = r.pose().unwrap(); // written from valid poses
+            anybox_geom::iou::iou(&p, &gt.pose, anybox_geom::iou::IouMethod::Exact)
+        };
+        let best_off = off.estimates.iter().map(fit).fold(0.0, f64::max);
+        assert!(best_off < 0.5, "found without corner unions: {best_off}");
+        let union = on
+            .estimates
+            .iter()
+            .filter(|r| r.extra.contains_key("parts"))
+            .find(|r| fit(r) > 0.7)
+            .expect("a union that finds the box");
+        for p in union.extra["parts"].as_array().expect("two parts") {
+            let part = record_named(&on, p);
+            assert!(fit(part) < 0.5, "a part alone finds it: {}", fit(part));
+            assert!(union.score < part.score);
+        }
+    }
+
     #[test]
     fn detected_frame_adds_flagged_union_of_a_split_carton() {
         let v = crate::detect::tests::table_d0_view(11);

@@ -874,7 +874,7 @@ fn table_d0_view_seeded(seed: u64, scene: u32) -> anybox_synth::SynthView {
 }
 
 /// Scene `scene` of a generated table set of `scenes` scenes without distractors.
-fn table_d0_view_of(seed: u64, scenes: u32, scene: u32) -> anybox_synth::SynthView {
+pub(crate) fn table_d0_view_of(seed: u64, scenes: u32, scene: u32) -> anybox_synth::SynthView {
     let sc = SynthConfig {
         layout: Layout::Table,
         scenes,
