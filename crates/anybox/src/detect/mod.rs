@@ -1521,19 +1521,23 @@ pub fn detect_boxes(
         g.seam[i as usize] = true;
     }
     let (mut chosen, alts) = select(&g, p.objects, p.geo, p.col, cfg);
-    let residual = residual_candidates(&g, &p.joins, &p.off, &p.planes, &chosen, p.up, cfg);
-    chosen.extend(residual);
     // Support cells, and cells next to a support facing like it, are never filled in: at a
     // box's foot they lie inside its silhouette at about its depth, and the estimator would
     // take them for the box. (The box's own foot, cut off its object, faces sideways.)
-    let mut claimed: Vec<bool> = (0..g.z.len())
+    let base_claims: Vec<bool> = (0..g.z.len())
+        .into_par_iter()
         .map(|i| p.on_support[i] || (p.off[i] && flat_near_support(&g, &p.planes, i, cfg)))
         .collect();
-    let base_claims = claimed.clone();
     // Each alternative is filled on its own, beside the detections: it may take what they
-    // took.
+    // took. The alternatives need neither the residual candidates nor the detections' fill,
+    // so they are filled while those run.
     let (cands, alt_cands): (_, Vec<boxes::Candidate>) = rayon::join(
-        || boxes::fill(&g, chosen, &mut claimed, &p.planes, p.up, cfg),
+        || {
+            let residual = residual_candidates(&g, &p.joins, &p.off, &p.planes, &chosen, p.up, cfg);
+            chosen.extend(residual);
+            let mut claimed = base_claims.clone();
+            boxes::fill(&g, chosen, &mut claimed, &p.planes, p.up, cfg)
+        },
         || {
             alts.into_par_iter()
                 .flat_map(|a| {
