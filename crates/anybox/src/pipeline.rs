@@ -525,10 +525,20 @@ pub fn tiled_unions(
     boxes: &[(OrientedBox, f64)],
     cfg: &crate::detect::DetectConfig,
 ) -> Vec<TiledUnion> {
-    union_pairs(boxes, cfg, |a, b, u| {
-        a.volume_mm3() + b.volume_mm3() >= cfg.tiled_union_min_fill * u.volume_mm3()
-            && !overlap_too_large(a, b, cfg)
+    union_pairs(boxes, &agreeing_pairs(boxes, cfg), cfg, |a, b, u| {
+        tiles(a, b, u, cfg)
     })
+}
+
+/// [`tiled_unions`]' test of two parts `a`, `b` and their union `u`.
+fn tiles(
+    a: &OrientedBox,
+    b: &OrientedBox,
+    u: &OrientedBox,
+    cfg: &crate::detect::DetectConfig,
+) -> bool {
+    a.volume_mm3() + b.volume_mm3() >= cfg.tiled_union_min_fill * u.volume_mm3()
+        && !overlap_too_large(a, b, cfg)
 }
 
 /// More alternative readings, for the pairs [`tiled_unions`] leaves out because a gap lies
@@ -551,17 +561,27 @@ pub fn gap_unions(
     intrinsics: &anybox_geom::Intrinsics,
     cfg: &crate::detect::DetectConfig,
 ) -> Vec<TiledUnion> {
-    if cfg.gap_union_min_fill >= cfg.tiled_union_min_fill {
-        return Vec::new();
-    }
-    union_pairs(boxes, cfg, |a, b, u| {
-        let parts = a.volume_mm3() + b.volume_mm3();
-        // Pairs at or above the tiled fill are `tiled_unions`'.
-        parts >= cfg.gap_union_min_fill * u.volume_mm3()
-            && !overlap_too_large(a, b, cfg)
-            && parts / u.volume_mm3() < cfg.tiled_union_min_fill
-            && hidden_behind_nothing(u, depth, intrinsics, cfg)
+    union_pairs(boxes, &agreeing_pairs(boxes, cfg), cfg, |a, b, u| {
+        tiles_across_gap(a, b, u, depth, intrinsics, cfg)
     })
+}
+
+/// [`gap_unions`]' test of two parts `a`, `b` and their union `u`.
+fn tiles_across_gap(
+    a: &OrientedBox,
+    b: &OrientedBox,
+    u: &OrientedBox,
+    depth: &anybox_io::DepthMap,
+    intrinsics: &anybox_geom::Intrinsics,
+    cfg: &crate::detect::DetectConfig,
+) -> bool {
+    let parts = a.volume_mm3() + b.volume_mm3();
+    // Pairs at or above the tiled fill are `tiled_unions`'.
+    cfg.gap_union_min_fill < cfg.tiled_union_min_fill
+        && parts >= cfg.gap_union_min_fill * u.volume_mm3()
+        && !overlap_too_large(a, b, cfg)
+        && parts / u.volume_mm3() < cfg.tiled_union_min_fill
+        && hidden_behind_nothing(u, depth, intrinsics, cfg)
 }
 
 /// Unions of the pairs that [`tiled_unions`] and [`gap_unions`] leave out because they share
@@ -586,18 +606,29 @@ pub fn corner_unions(
     intrinsics: &anybox_geom::Intrinsics,
     cfg: &crate::detect::DetectConfig,
 ) -> Vec<TiledUnion> {
-    if cfg.corner_union_max_shared <= 0.0 {
-        return Vec::new();
-    }
-    union_pairs(boxes, cfg, |a, b, u| {
-        let shared = anybox_geom::iou::intersection_volume_mm3(a, b);
-        let smaller = a.volume_mm3().min(b.volume_mm3());
-        shared > cfg.tiled_union_max_shared * smaller
-            && shared <= cfg.corner_union_max_shared * smaller
-            && a.volume_mm3() + b.volume_mm3() - shared
-                >= cfg.corner_union_min_fill * u.volume_mm3()
-            && hidden_behind_nothing(u, depth, intrinsics, cfg)
+    union_pairs(boxes, &agreeing_pairs(boxes, cfg), cfg, |a, b, u| {
+        meet_at_corner(a, b, u, depth, intrinsics, cfg)
     })
+}
+
+/// [`corner_unions`]' test of two parts `a`, `b` and their union `u`.
+fn meet_at_corner(
+    a: &OrientedBox,
+    b: &OrientedBox,
+    u: &OrientedBox,
+    depth: &anybox_io::DepthMap,
+    intrinsics: &anybox_geom::Intrinsics,
+    cfg: &crate::detect::DetectConfig,
+) -> bool {
+    if cfg.corner_union_max_shared <= 0.0 {
+        return false;
+    }
+    let shared = anybox_geom::iou::intersection_volume_mm3(a, b);
+    let smaller = a.volume_mm3().min(b.volume_mm3());
+    shared > cfg.tiled_union_max_shared * smaller
+        && shared <= cfg.corner_union_max_shared * smaller
+        && a.volume_mm3() + b.volume_mm3() - shared >= cfg.corner_union_min_fill * u.volume_mm3()
+        && hidden_behind_nothing(u, depth, intrinsics, cfg)
 }
 
 /// Whether the camera sees past at most `gap_union_max_see_through` of a union's silhouette
@@ -621,35 +652,45 @@ fn hidden_behind_nothing(
     .is_some_and(|f| f <= cfg.gap_union_max_see_through)
 }
 
-/// The unions of the pairs of `boxes` whose axes agree within `tiled_union_max_angle_deg`
-/// ([`tiled_union`]) and that pass `keep(part, part, union)`, scored
-/// `tiled_union_score_factor` × the lower part's score; empty when that factor is 0.
-fn union_pairs(
+/// The pairs of `boxes` whose axes agree within `tiled_union_max_angle_deg`, with the cuboid
+/// bounding both ([`tiled_union`]), in pair order: what every kind of union tests, found once
+/// per frame by [`alternative_readings`]. Empty when `tiled_union_score_factor` is 0.
+fn agreeing_pairs(
     boxes: &[(OrientedBox, f64)],
     cfg: &crate::detect::DetectConfig,
-    keep: impl Fn(&OrientedBox, &OrientedBox, &OrientedBox) -> bool,
-) -> Vec<TiledUnion> {
+) -> Vec<([usize; 2], OrientedBox)> {
     let mut out = Vec::new();
     if cfg.tiled_union_score_factor <= 0.0 {
         return out;
     }
     for a in 0..boxes.len() {
         for b in a + 1..boxes.len() {
-            let ((pa, sa), (pb, sb)) = (&boxes[a], &boxes[b]);
-            let Some(u) = tiled_union(pa, pb, cfg.tiled_union_max_angle_deg, 0.0) else {
-                continue;
-            };
-            if !keep(pa, pb, &u) {
-                continue;
+            let angle = cfg.tiled_union_max_angle_deg;
+            if let Some(u) = tiled_union(&boxes[a].0, &boxes[b].0, angle, 0.0) {
+                out.push(([a, b], u));
             }
-            out.push(TiledUnion {
-                parts: [a, b],
-                pose: u,
-                score: sa.min(*sb) * cfg.tiled_union_score_factor,
-            });
         }
     }
     out
+}
+
+/// The unions of the [`agreeing_pairs`] of `boxes` that pass `keep(part, part, union)`,
+/// scored `tiled_union_score_factor` × the lower part's score.
+fn union_pairs(
+    boxes: &[(OrientedBox, f64)],
+    pairs: &[([usize; 2], OrientedBox)],
+    cfg: &crate::detect::DetectConfig,
+    keep: impl Fn(&OrientedBox, &OrientedBox, &OrientedBox) -> bool,
+) -> Vec<TiledUnion> {
+    pairs
+        .iter()
+        .filter(|([a, b], u)| keep(&boxes[*a].0, &boxes[*b].0, u))
+        .map(|&(parts, pose)| TiledUnion {
+            parts,
+            pose,
+            score: boxes[parts[0]].1.min(boxes[parts[1]].1) * cfg.tiled_union_score_factor,
+        })
+        .collect()
 }
 
 /// How a [`RepeatReading`] reads its source estimate.
@@ -988,9 +1029,15 @@ pub fn alternative_readings(
     intrinsics: &anybox_geom::Intrinsics,
     cfg: &crate::detect::DetectConfig,
 ) -> AlternativeReadings {
-    let mut unions = tiled_unions(boxes, cfg);
-    unions.extend(gap_unions(boxes, depth, intrinsics, cfg));
-    unions.extend(corner_unions(boxes, depth, intrinsics, cfg));
+    // Each kind of union in turn, from the pairs found once.
+    let pairs = agreeing_pairs(boxes, cfg);
+    let mut unions = union_pairs(boxes, &pairs, cfg, |a, b, u| tiles(a, b, u, cfg));
+    unions.extend(union_pairs(boxes, &pairs, cfg, |a, b, u| {
+        tiles_across_gap(a, b, u, depth, intrinsics, cfg)
+    }));
+    unions.extend(union_pairs(boxes, &pairs, cfg, |a, b, u| {
+        meet_at_corner(a, b, u, depth, intrinsics, cfg)
+    }));
     AlternativeReadings {
         unions,
         repeats: repeat_readings(boxes, cfg),
