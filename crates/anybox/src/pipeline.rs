@@ -1120,18 +1120,20 @@ pub struct LatticeReading {
     pub source: usize,
 }
 
-/// Cartons at the next places of a layer (`boxes`: pose and score of each estimate from
-/// detected masks): an estimate whose size other estimates of the frame share
+/// Cartons at the next places of a layer or a stack (`boxes`: pose and score of each estimate
+/// from detected masks): an estimate whose size other estimates of the frame share
 /// (`lattice_min_copies`) is moved by one of its own extents across its face towards the
-/// camera, both ways along both of that face's axes. A moved box is read where the depth
-/// shows its face there (`lattice_min_on_face` of a 7 × 7 grid over it within
-/// `lattice_depth_tol_mm`) and no estimate fills more than `lattice_max_shared` of it; one
+/// camera, both ways along both of that face's axes, and along that face's normal where the
+/// face seen next best faces the camera by at least `lattice_stack_min_facing`. A moved box is
+/// read where the depth shows its face there (the face towards the camera; for a move along
+/// its normal, the other one), at least `lattice_min_on_face` of a 7 × 7 grid over it within
+/// `lattice_depth_tol_mm`, and no estimate fills more than `lattice_max_shared` of it; one
 /// reading per place (3D IoU above 0.5 is one place), the best scored. Scored
 /// `lattice_score_factor` times the source's score; 0 disables.
 ///
 /// Why: a pallet's layer is a lattice of one carton, and its tops are flush and of one
-/// colour. The detector finds some of them whole and others in pieces or not at all; the
-/// found ones tell where the others are.
+/// colour; the layers stack with their sides flush. The detector finds some of them whole and
+/// others in pieces or not at all; the found ones tell where the others are.
 pub fn lattice_readings(
     boxes: &[(OrientedBox, f64)],
     depth: &anybox_io::DepthMap,
@@ -1159,11 +1161,25 @@ pub fn lattice_readings(
                 cx.total_cmp(&cy)
             })
             .unwrap_or(2);
-        for b in (0..3).filter(|&b| b != a) {
+        // A move along that face's normal (the next carton of a stack) is read on the face
+        // seen next best, where the camera sees it well enough.
+        let facing = |x: usize| pose.axis(x).dot(&view).abs();
+        let side = (0..3)
+            .filter(|&x| x != a)
+            .max_by(|&x, &y| facing(x).total_cmp(&facing(y)))
+            .unwrap_or((a + 1) % 3);
+        for b in 0..3 {
+            let face = if b != a {
+                a
+            } else if facing(side) >= cfg.lattice_stack_min_facing {
+                side
+            } else {
+                continue;
+            };
             for sign in [-1.0, 1.0] {
                 let mut moved = pose;
                 moved.center_mm += pose.axis(b) * (sign * pose.size_mm[b]);
-                if face_on_depth(&moved, a, depth, intrinsics, cfg) < cfg.lattice_min_on_face {
+                if face_on_depth(&moved, face, depth, intrinsics, cfg) < cfg.lattice_min_on_face {
                     continue;
                 }
                 let vol = moved.volume_mm3();
@@ -1366,6 +1382,40 @@ mod tests {
         low[2].center_mm.z += 30.0;
         let (depth, _) = render(&low, &[floor()], &k, 640, 480);
         assert!(lattice_readings(&found, &depth, &k, &cfg).is_empty());
+    }
+
+    #[test]
+    fn lattice_readings_put_a_carton_under_a_found_one_of_a_stack() {
+        use anybox_geom::iou::{iou, IouMethod};
+        // Two 200 × 150 × 120 mm cartons stacked along their z axis, tilted 40° about x: the
+        // camera sees their tops (|cos| 0.77 with the viewing ray) and their flush fronts
+        // (0.64). A copy stands apart. The detector found the upper one and the copy.
+        let k = cam();
+        let rot = Rotation3::from_axis_angle(&Vector3::x_axis(), 40f64.to_radians());
+        let size = Vector3::new(200.0, 150.0, 120.0);
+        let upper = OrientedBox::new(rot, Vector3::new(0.0, 0.0, 1200.0), size).unwrap();
+        let at = |d: Vector3<f64>| OrientedBox {
+            center_mm: upper.center_mm + rot * d,
+            ..upper
+        };
+        let (lower, copy) = (at(Vector3::new(0.0, 0.0, 120.0)), at(Vector3::x() * 450.0));
+        let (depth, _) = render(&[upper, lower, copy], &[], &k, 640, 480);
+        let found = [(upper, 0.8), (copy, 0.6)];
+        let cfg = crate::detect::DetectConfig::default();
+        let r = lattice_readings(&found, &depth, &k, &cfg);
+        // Beside the cartons and above the upper one there is no depth: the lower one only.
+        assert_eq!(r.len(), 1, "{r:?}");
+        assert!(iou(&r[0].pose, &lower, IouMethod::Exact) > 0.99, "{r:?}");
+        assert_eq!(r[0].source, 0);
+        // Read on the fronts: with stacks off, or the fronts seen more edge-on than allowed,
+        // none.
+        for facing in [1.5, 0.7] {
+            let off = crate::detect::DetectConfig {
+                lattice_stack_min_facing: facing,
+                ..cfg.clone()
+            };
+            assert!(lattice_readings(&found, &depth, &k, &off).is_empty());
+        }
     }
 
     #[test]
