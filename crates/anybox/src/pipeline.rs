@@ -1155,15 +1155,12 @@ pub fn lattice_readings(
         let Some(view) = pose.center_mm.try_normalize(1e-9) else {
             continue;
         };
+        let facing = |x: usize| pose.axis(x).dot(&view).abs();
         let a = (0..3)
-            .max_by(|&x, &y| {
-                let (cx, cy) = (pose.axis(x).dot(&view).abs(), pose.axis(y).dot(&view).abs());
-                cx.total_cmp(&cy)
-            })
+            .max_by(|&x, &y| facing(x).total_cmp(&facing(y)))
             .unwrap_or(2);
         // A move along that face's normal (the next carton of a stack) is read on the face
         // seen next best, where the camera sees it well enough.
-        let facing = |x: usize| pose.axis(x).dot(&view).abs();
         let side = (0..3)
             .filter(|&x| x != a)
             .max_by(|&x, &y| facing(x).total_cmp(&facing(y)))

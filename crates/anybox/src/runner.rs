@@ -663,10 +663,6 @@ mod tests {
         }
     }
 
-    /// A generated table view (seed 2026, view 11) where the detector cuts a carton in two at
-    /// its flap seam: the run returns the union as an alternative, flagged, scored below both
-    /// parts, and closer to the carton than either part. (View 12's carton, used before, is
-    /// now found whole: `detect.band_face_alternatives`.)
     /// Seed 2026's 48-view table view 8 (`SEED=2026 ONLY=table-d0 VIEW=8 RUNFRAME='{}'
     /// detect_dev 48`): a 71 × 48 × 106 mm box whose top and front the detector returns as two
     /// detections, estimated 70 × 52 × 27 and 68 × 27 × 87 mm (3D IoU 0.24 and 0.43). Their
@@ -696,6 +692,10 @@ mod tests {
         }
     }
 
+    /// A generated table view (seed 2026, view 11) where the detector cuts a carton in two at
+    /// its flap seam: the run returns the union as an alternative, flagged, scored below both
+    /// parts, and closer to the carton than either part. (View 12's carton, used before, is
+    /// now found whole: `detect.band_face_alternatives`.)
     #[test]
     fn detected_frame_adds_flagged_union_of_a_split_carton() {
         let v = crate::detect::tests::table_d0_view(11);
