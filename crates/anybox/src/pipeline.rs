@@ -159,8 +159,13 @@ fn stage_from_mask(
     let mut score = out.score;
     let mut depth_penalty = out.depth_penalty;
     let mut pose_calls = out.pose_calls;
-    let upgrade = cfg.scale.pixel_face_upgrade && cfg.scale.mode == ScaleMode::PointFit;
-    let observed = observed_faces(&pose, &inputs, &cfg.context, upgrade).0;
+    // PointFit reports the observed axes of its final pose, which is `pose`, with the same
+    // rule (pixel upgrade as configured); the other modes' reports may differ.
+    let observed = if cfg.scale.mode == ScaleMode::PointFit {
+        out.observed_axes
+    } else {
+        observed_faces(&pose, &inputs, &cfg.context, false).0
+    };
     let mut sources = observed.map(|o| {
         if o {
             HiddenSource::Observed
