@@ -75,12 +75,12 @@ fn main() {
                 continue;
             };
             let plain: Vec<_> = masks.iter().map(|m| m.mask.clone()).collect();
-            let alt: Vec<bool> = masks.iter().map(|m| m.alternative).collect();
-            let results = anybox::pipeline::estimate_frame_with_alternatives(
+            let roles = pipeline::detected_mask_roles(&masks, &est_cfg.detect);
+            let results = pipeline::estimate_frame_with_roles(
                 &f.depth,
                 &f.intrinsics,
                 &plain,
-                &alt,
+                &roles,
                 &est_cfg,
             );
             // Rows: (pose, score, detector score, estimator score, faces, kind, mask pixels,

@@ -66,6 +66,10 @@ impl Config {
     pub fn for_detected_masks(&self) -> Self {
         let mut c = self.clone();
         c.observation.retry_below_score = self.detect.estimate_retry_below_score;
+        c.pose.depth_filter.n_samples = self.detect.estimate_depth_samples;
+        if self.detect.estimate_prior_reestimate {
+            c.scale.pointfit_free_reestimate = false;
+        }
         c
     }
 
@@ -166,10 +170,21 @@ mod tests {
         );
         let d = Config::default();
         assert!(d.observation.retry_below_score > 0.0);
+        let det = d.for_detected_masks();
         assert_eq!(
-            d.for_detected_masks().observation.retry_below_score,
+            det.observation.retry_below_score,
             d.detect.estimate_retry_below_score
         );
+        assert_eq!(
+            det.pose.depth_filter.n_samples,
+            d.detect.estimate_depth_samples
+        );
+        assert_ne!(
+            d.pose.depth_filter.n_samples,
+            d.detect.estimate_depth_samples
+        );
+        assert!(d.scale.pointfit_free_reestimate);
+        assert!(!det.scale.pointfit_free_reestimate);
         assert_eq!(Config::default().scale.mode, ScaleMode::PointFit);
         assert!(Config::default().context.enabled);
         assert_eq!(Config::paper().canonical().scale.mode, ScaleMode::Canonical);

@@ -314,16 +314,71 @@ pub fn estimate_frame_with_alternatives(
     alternative: &[bool],
     cfg: &Config,
 ) -> Vec<Result<BoxEstimate, EstimateError>> {
-    // Alternative readings are not estimated twice (`observation.retry_below_score`): they
-    // are most of a detected frame's masks and score low anyway.
+    let roles: Vec<MaskRole> = (0..masks.len())
+        .map(|i| {
+            let alt = alternative.get(i).copied().unwrap_or(false);
+            MaskRole {
+                alternative: alt,
+                retry: !alt,
+            }
+        })
+        .collect();
+    estimate_frame_with_roles(depth, intrinsics, masks, &roles, cfg)
+}
+
+/// How [`estimate_frame_with_roles`] treats one mask.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MaskRole {
+    /// An alternative reading: takes hidden extents from its layer's neighbours but gives
+    /// none.
+    pub alternative: bool,
+    /// May get the second try on a low score (`observation.retry_below_score`).
+    pub retry: bool,
+}
+
+/// The roles of a frame's masks on the built-in detector's path: alternatives are
+/// alternatives and get no second try; the detector's own masks (`faces` given) scored below
+/// `detect.estimate_retry_min_detection_score` get none either; other masks get one.
+pub fn detected_mask_roles(
+    masks: &[crate::segmentation::InstanceMask],
+    cfg: &crate::detect::DetectConfig,
+) -> Vec<MaskRole> {
+    masks
+        .iter()
+        .map(|m| MaskRole {
+            alternative: m.alternative,
+            retry: !m.alternative
+                && (m.faces.is_none() || m.score >= cfg.estimate_retry_min_detection_score),
+        })
+        .collect()
+}
+
+/// [`estimate_frame_with_alternatives`] with the second try chosen per mask (`roles[i]`;
+/// missing entries: a plain mask with a second try). The built-in detector's path
+/// (`runner::run_frame`) gives none to alternatives and to detections scored below
+/// `detect.estimate_retry_min_detection_score`.
+pub fn estimate_frame_with_roles(
+    depth: &DepthMap,
+    intrinsics: &Intrinsics,
+    masks: &[Mask],
+    roles: &[MaskRole],
+    cfg: &Config,
+) -> Vec<Result<BoxEstimate, EstimateError>> {
+    let role = |i: usize| {
+        roles.get(i).copied().unwrap_or(MaskRole {
+            alternative: false,
+            retry: true,
+        })
+    };
+    let alternative: Vec<bool> = (0..masks.len()).map(|i| role(i).alternative).collect();
     let mut no_retry = cfg.clone();
     no_retry.observation.retry_below_score = 0.0;
     let mut stages: Vec<Result<Stage, EstimateError>> = masks
         .par_iter()
         .enumerate()
         .map(|(i, m)| {
-            let alt = alternative.get(i).copied().unwrap_or(false);
-            stage_one(depth, intrinsics, m, if alt { &no_retry } else { cfg })
+            let c = if role(i).retry { cfg } else { &no_retry };
+            stage_one(depth, intrinsics, m, c)
         })
         .collect();
     let size_is_free = !matches!(cfg.scale.mode, ScaleMode::Canonical | ScaleMode::Oracle(_));
@@ -2221,6 +2276,43 @@ mod tests {
         // its first estimate.
         assert_ne!(frame(false, &always), frame(false, &off));
         assert_eq!(frame(true, &always), frame(false, &off));
+    }
+
+    #[test]
+    fn detections_scored_low_get_no_second_try() {
+        let (k, depth, _, _, leaky) = box_with_post_leak();
+        let mut off = Config::default();
+        off.scale.maskfit_gate_abs_mm = 0.0;
+        off.observation.retry_below_score = 0.0;
+        let mut always = off.clone();
+        always.observation.retry_below_score = 1.01;
+        always.detect.estimate_retry_min_detection_score = 0.3;
+        let instance = |score: f64, faces: Option<u8>| crate::segmentation::InstanceMask {
+            mask: leaky.clone(),
+            score,
+            name: "m".into(),
+            alternative: false,
+            faces,
+        };
+        let masks = [
+            instance(0.2, Some(2)),
+            instance(0.4, Some(2)),
+            instance(0.2, None),
+        ];
+        let roles = detected_mask_roles(&masks, &always.detect);
+        assert_eq!(
+            roles.iter().map(|r| r.retry).collect::<Vec<_>>(),
+            [false, true, true]
+        );
+        let plain: Vec<Mask> = masks.iter().map(|m| m.mask.clone()).collect();
+        let got = estimate_frame_with_roles(&depth, &k, &plain, &roles, &always);
+        let first = estimate_frame(&depth, &k, &plain[..1], &off)
+            .remove(0)
+            .unwrap();
+        // Premise: the second try changes this mask's estimate.
+        assert_ne!(got[1].as_ref().unwrap(), &first);
+        assert_eq!(got[0].as_ref().unwrap(), &first);
+        assert_eq!(got[1].as_ref().unwrap(), got[2].as_ref().unwrap());
     }
 
     #[test]

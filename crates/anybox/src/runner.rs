@@ -104,15 +104,10 @@ pub fn run_frame(
     config: &Config,
 ) -> RunOutput {
     let plain: Vec<Mask> = masks.iter().map(|m| m.mask.clone()).collect();
-    let alternative: Vec<bool> = masks.iter().map(|m| m.alternative).collect();
+    let roles = crate::pipeline::detected_mask_roles(masks, &config.detect);
     let start = Instant::now();
-    let results = crate::pipeline::estimate_frame_with_alternatives(
-        depth,
-        intrinsics,
-        &plain,
-        &alternative,
-        config,
-    );
+    let results =
+        crate::pipeline::estimate_frame_with_roles(depth, intrinsics, &plain, &roles, config);
     // The built-in detector's masks: a tin or a rod may come as a box. In parallel, as the
     // estimates: each test back-projects its mask, and some observe it again.
     let round: Vec<f64> = masks

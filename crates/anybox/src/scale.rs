@@ -117,6 +117,11 @@ pub struct ScaleConfig {
     /// of boxes at IoU ≥ 0.5 and ≥ 0.7 identical on the generated benchmark, seeds 2026 / 7 / 11,
     /// ground-truth masks) and cost 0.6 pose estimates per box.
     pub pointfit_iters: u32,
+    /// PointFit: the first re-estimate searches freely, without the start's pose as a prior
+    /// (the template's pose may have put its axes on the wrong sides of the box, which a
+    /// prior would keep). Default on; off on detected masks
+    /// (`detect.estimate_prior_reestimate`).
+    pub pointfit_free_reestimate: bool,
     /// PointFit: start from the size measured off the observation
     /// ([`ScaleInputs::start_size_mm`], when given) instead of the template. The template's pose
     /// can settle on the wrong in-plane rotation when the template is much larger than the
@@ -202,6 +207,7 @@ impl Default for ScaleConfig {
             decoupled: false,
             search_with_prior: false,
             pointfit_iters: 2,
+            pointfit_free_reestimate: true,
             measured_start: true,
             pointfit_percentile: 0.5,
             pointfit_edge_px: 1.0,
@@ -1151,7 +1157,7 @@ fn point_fit<P: PoseEstimator>(
         size = new;
         // The first re-estimate searches freely: the template's pose may have put the template's
         // axes on the wrong sides of the box, which a prior would keep.
-        let prior = (iterations > 1).then_some(&pose);
+        let prior = (iterations > 1 || !cfg.pointfit_free_reestimate).then_some(&pose);
         sample = est.estimate(&size, prior)?;
         pose_calls += 1;
         if change < 1.0 {
@@ -1399,6 +1405,33 @@ mod tests {
         );
         assert_eq!(first_size(Some(measured), false), template);
         assert_eq!(first_size(None, true), template);
+    }
+
+    #[test]
+    fn point_fit_first_reestimate_takes_the_prior_only_when_asked() {
+        let (gt, depth, mask) = scene();
+        let k = cam();
+        let px = mask_pixels(&mask);
+        let priors = |free: bool| {
+            let mut inputs = pixel_inputs(&k, &depth, &px);
+            inputs.start_size_mm = Some(Vector3::new(250.0, 150.0, 110.0));
+            let cfg = ScaleConfig {
+                pointfit_free_reestimate: free,
+                ..Default::default()
+            };
+            let mut given: Vec<bool> = Vec::new();
+            let mut oracle = oracle_pose(gt);
+            let mut est = |s: &Vector3<f64>, p: Option<&OrientedBox>| {
+                given.push(p.is_some());
+                oracle(s, p)
+            };
+            scale_search(&mut est, &inputs, &cfg, &ContextConfig::default(), None).unwrap();
+            given
+        };
+        // The start's estimate never has a prior; the first re-estimate has one only when
+        // asked; the second always has one.
+        assert_eq!(priors(true)[..3], [false, false, true]);
+        assert_eq!(priors(false)[..3], [false, true, true]);
     }
 
     proptest::proptest! {
