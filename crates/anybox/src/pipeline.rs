@@ -2258,14 +2258,22 @@ mod tests {
         assert!(iou(&gated.pose, &gt) > 0.9 && iou(&gated.pose, &gt) > iou(&c.pose, &gt));
     }
 
-    #[test]
-    fn alternative_readings_get_no_second_try() {
-        let (k, depth, _, _, leaky) = box_with_post_leak();
+    /// Configurations without the depth gate (whose first estimate of the leaky mask of
+    /// [`box_with_post_leak`] a second try improves): with no second try, and with one on
+    /// every score.
+    fn retry_configs() -> (Config, Config) {
         let mut off = Config::default();
         off.scale.maskfit_gate_abs_mm = 0.0;
         off.observation.retry_below_score = 0.0;
         let mut always = off.clone();
         always.observation.retry_below_score = 1.01;
+        (off, always)
+    }
+
+    #[test]
+    fn alternative_readings_get_no_second_try() {
+        let (k, depth, _, _, leaky) = box_with_post_leak();
+        let (off, always) = retry_configs();
         let masks = [leaky];
         let frame = |alt: bool, cfg: &Config| {
             estimate_frame_with_alternatives(&depth, &k, &masks, &[alt], cfg)
@@ -2281,11 +2289,7 @@ mod tests {
     #[test]
     fn detections_scored_low_get_no_second_try() {
         let (k, depth, _, _, leaky) = box_with_post_leak();
-        let mut off = Config::default();
-        off.scale.maskfit_gate_abs_mm = 0.0;
-        off.observation.retry_below_score = 0.0;
-        let mut always = off.clone();
-        always.observation.retry_below_score = 1.01;
+        let (off, mut always) = retry_configs();
         always.detect.estimate_retry_min_detection_score = 0.3;
         let instance = |score: f64, faces: Option<u8>| crate::segmentation::InstanceMask {
             mask: leaky.clone(),

@@ -1155,8 +1155,9 @@ fn point_fit<P: PoseEstimator>(
         new = clamp_size(&new, cfg);
         let change = (new - size).abs().max();
         size = new;
-        // The first re-estimate searches freely: the template's pose may have put the template's
-        // axes on the wrong sides of the box, which a prior would keep.
+        // The first re-estimate searches freely unless told otherwise
+        // (`pointfit_free_reestimate`): the template's pose may have put the template's axes
+        // on the wrong sides of the box, which a prior would keep.
         let prior = (iterations > 1 || !cfg.pointfit_free_reestimate).then_some(&pose);
         sample = est.estimate(&size, prior)?;
         pose_calls += 1;
