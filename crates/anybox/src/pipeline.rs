@@ -315,13 +315,7 @@ pub fn estimate_frame_with_alternatives(
     cfg: &Config,
 ) -> Vec<Result<BoxEstimate, EstimateError>> {
     let roles: Vec<MaskRole> = (0..masks.len())
-        .map(|i| {
-            let alt = alternative.get(i).copied().unwrap_or(false);
-            MaskRole {
-                alternative: alt,
-                retry: !alt,
-            }
-        })
+        .map(|i| MaskRole::of(alternative.get(i).copied().unwrap_or(false)))
         .collect();
     estimate_frame_with_roles(depth, intrinsics, masks, &roles, cfg)
 }
@@ -334,6 +328,16 @@ pub struct MaskRole {
     pub alternative: bool,
     /// May get the second try on a low score (`observation.retry_below_score`).
     pub retry: bool,
+}
+
+impl MaskRole {
+    /// An alternative (no second try) or a plain mask (with one).
+    pub fn of(alternative: bool) -> Self {
+        Self {
+            alternative,
+            retry: !alternative,
+        }
+    }
 }
 
 /// The roles of a frame's masks on the built-in detector's path: alternatives are
@@ -364,12 +368,7 @@ pub fn estimate_frame_with_roles(
     roles: &[MaskRole],
     cfg: &Config,
 ) -> Vec<Result<BoxEstimate, EstimateError>> {
-    let role = |i: usize| {
-        roles.get(i).copied().unwrap_or(MaskRole {
-            alternative: false,
-            retry: true,
-        })
-    };
+    let role = |i: usize| roles.get(i).copied().unwrap_or(MaskRole::of(false));
     let alternative: Vec<bool> = (0..masks.len()).map(|i| role(i).alternative).collect();
     let mut no_retry = cfg.clone();
     no_retry.observation.retry_below_score = 0.0;
