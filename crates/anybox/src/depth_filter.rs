@@ -84,6 +84,9 @@ pub struct CellMinDepth {
     /// estimator's hottest loop.
     col_cell: Vec<u32>,
     row_cell: Vec<u32>,
+    /// The depth map's width and height, px: [`Self::window`] clips to them as [`Self::new`]
+    /// does.
+    image_px: (u32, u32),
 }
 
 impl CellMinDepth {
@@ -101,6 +104,7 @@ impl CellMinDepth {
             min_mm: Vec::new(),
             col_cell: Vec::new(),
             row_cell: Vec::new(),
+            image_px: (depth.width, depth.height),
         };
         if depth.width == 0 || depth.height == 0 {
             return empty;
@@ -153,7 +157,58 @@ impl CellMinDepth {
             min_mm,
             col_cell: cells_of(ncu),
             row_cell: cells_of(ncv),
+            image_px: (depth.width, depth.height),
         }
+    }
+
+    /// What [`Self::new`] builds over the pixel rectangle `[u0, u1] × [v0, v1]` of the same depth
+    /// map, copied from `self` instead of read from the pixels again (the cells are aligned to
+    /// the image grid, so a cell's minimum does not depend on the region). `None` when `self`
+    /// does not cover every cell of the rectangle; [`Self::full`] covers any.
+    pub fn window(&self, u0: u32, v0: u32, u1: u32, v1: u32) -> Option<Self> {
+        let c = self.cell_px;
+        let (w, h) = self.image_px;
+        let u1 = u1.min(w.saturating_sub(1));
+        let v1 = v1.min(h.saturating_sub(1));
+        if w == 0 || h == 0 || u0 > u1 || v0 > v1 {
+            return Some(Self {
+                cell_px: c,
+                ci0: 0,
+                cj0: 0,
+                ncu: 0,
+                ncv: 0,
+                min_mm: Vec::new(),
+                col_cell: Vec::new(),
+                row_cell: Vec::new(),
+                image_px: self.image_px,
+            });
+        }
+        let (ci0, cj0, ci1, cj1) = (u0 / c, v0 / c, u1 / c, v1 / c);
+        let covers = ci0 >= self.ci0
+            && cj0 >= self.cj0
+            && ci1 < self.ci0 + self.ncu
+            && cj1 < self.cj0 + self.ncv;
+        if !covers {
+            return None;
+        }
+        let (ncu, ncv) = (ci1 - ci0 + 1, cj1 - cj0 + 1);
+        let mut min_mm = Vec::with_capacity(ncu as usize * ncv as usize);
+        for j in cj0 - self.cj0..=cj1 - self.cj0 {
+            let row = (j * self.ncu + ci0 - self.ci0) as usize;
+            min_mm.extend_from_slice(&self.min_mm[row..row + ncu as usize]);
+        }
+        let cells_of = |n: u32| (0..n * c).map(|k| k / c).collect();
+        Some(Self {
+            cell_px: c,
+            ci0,
+            cj0,
+            ncu,
+            ncv,
+            min_mm,
+            col_cell: cells_of(ncu),
+            row_cell: cells_of(ncv),
+            image_px: self.image_px,
+        })
     }
 
     /// Cells covering the whole image.
@@ -439,6 +494,18 @@ mod tests {
             }
             let (u0, v0, u1, v1) = region;
             let cells = CellMinDepth::new(&d, c, u0, v0, u1, v1);
+            // A window of the whole image's cells, or of a larger region's, is what `new`
+            // builds over the region.
+            let full = CellMinDepth::full(&d, c).window(u0, v0, u1, v1);
+            proptest::prop_assert_eq!(full.as_ref(), Some(&cells));
+            let (a0, b0) = (u0.saturating_sub(seed as u32 % 9), v0.saturating_sub(seed as u32 % 7));
+            let larger = CellMinDepth::new(&d, c, a0, b0, u1, v1).window(u0, v0, u1, v1);
+            proptest::prop_assert_eq!(larger.as_ref(), Some(&cells));
+            // A smaller region's cells do not cover it.
+            if cells.ncu > 1 {
+                let smaller = CellMinDepth::new(&d, c, u0 + c, v0, u1, v1);
+                proptest::prop_assert_eq!(smaller.window(u0, v0, u1, v1), None);
+            }
             for (u, v) in queries {
                 proptest::prop_assert_eq!(
                     cells.at(u, v),

@@ -24,6 +24,7 @@ use crate::config::Config;
 use crate::context::{
     doubt_factor, infer_hidden, share_layer_heights, ContextInputs, HiddenSource, LayerMember,
 };
+use crate::depth_filter::CellMinDepth;
 use crate::error::EstimateError;
 use crate::observation::{box_faces_mask, observe, trim_support_leak, Observation};
 use crate::pose::estimate_pose;
@@ -90,13 +91,16 @@ fn sample_of(
 /// [`stage_from_mask`], with a second try from the mask cut down to its box faces
 /// ([`box_faces_mask`]) when the first scores below `observation.retry_below_score`; the
 /// better-scoring of the two is kept.
+/// `frame_cells`: the depth map's cells ([`CellMinDepth::full`]) when a frame's masks share
+/// them, else `None` (each estimate reads its region's pixels).
 fn stage_one(
     depth: &DepthMap,
     k: &Intrinsics,
     mask: &Mask,
+    frame_cells: Option<&CellMinDepth>,
     cfg: &Config,
 ) -> Result<Stage, EstimateError> {
-    let first = stage_from_mask(depth, k, mask, cfg);
+    let first = stage_from_mask(depth, k, mask, frame_cells, cfg);
     let below = |st: &Stage| st.score * st.doubt < cfg.observation.retry_below_score;
     if !first.as_ref().is_ok_and(below) {
         return first;
@@ -104,7 +108,7 @@ fn stage_one(
     let Some(cut) = box_faces_mask(depth, k, mask, &cfg.observation) else {
         return first;
     };
-    match (first, stage_from_mask(depth, k, &cut, cfg)) {
+    match (first, stage_from_mask(depth, k, &cut, frame_cells, cfg)) {
         (Ok(a), Ok(b)) if b.score * b.doubt > a.score * a.doubt => Ok(b),
         (a, _) => a,
     }
@@ -114,11 +118,15 @@ fn stage_from_mask(
     depth: &DepthMap,
     k: &Intrinsics,
     mask: &Mask,
+    frame_cells: Option<&CellMinDepth>,
     cfg: &Config,
 ) -> Result<Stage, EstimateError> {
     let trimmed = trim_support_leak(depth, k, mask, &cfg.observation);
     let mask = trimmed.as_ref().unwrap_or(mask);
     let obs = observe(depth, k, mask, &cfg.observation)?;
+    if let Some(cells) = frame_cells {
+        crate::pose::share_frame_cells(&obs, cells, &cfg.pose);
+    }
     let pixels = mask_pixels(mask);
     // The measured start: the point extents along the main frame (the analysis lands in the
     // observation's cache, where the pose estimates that follow find it).
@@ -258,7 +266,7 @@ pub fn estimate_box(
     mask: &Mask,
     cfg: &Config,
 ) -> Result<BoxEstimate, EstimateError> {
-    stage_one(depth, intrinsics, mask, cfg).map(|s| finish(&s))
+    stage_one(depth, intrinsics, mask, None, cfg).map(|s| finish(&s))
 }
 
 /// What one box's estimate went through (diagnostics): per canonical axis, where its extent came
@@ -276,7 +284,7 @@ pub fn estimate_box_traced(
     mask: &Mask,
     cfg: &Config,
 ) -> Result<(BoxEstimate, BoxTrace), EstimateError> {
-    let st = stage_one(depth, intrinsics, mask, cfg)?;
+    let st = stage_one(depth, intrinsics, mask, None, cfg)?;
     let e = finish(&st);
     let mut sources = [HiddenSource::Observed; 3];
     for (i, s) in sources.iter_mut().enumerate() {
@@ -372,12 +380,15 @@ pub fn estimate_frame_with_roles(
     let alternative: Vec<bool> = (0..masks.len()).map(|i| role(i).alternative).collect();
     let mut no_retry = cfg.clone();
     no_retry.observation.retry_below_score = 0.0;
+    // One pass over the depth map for the filter's cells of every mask (the same cells).
+    let frame_cells =
+        (masks.len() > 1).then(|| CellMinDepth::full(depth, cfg.pose.depth_filter.cell_px));
     let mut stages: Vec<Result<Stage, EstimateError>> = masks
         .par_iter()
         .enumerate()
         .map(|(i, m)| {
             let c = if role(i).retry { cfg } else { &no_retry };
-            stage_one(depth, intrinsics, m, c)
+            stage_one(depth, intrinsics, m, frame_cells.as_ref(), c)
         })
         .collect();
     let size_is_free = !matches!(cfg.scale.mode, ScaleMode::Canonical | ScaleMode::Oracle(_));

@@ -174,6 +174,42 @@ pub struct RankedHypothesis {
     pub key: f64,
 }
 
+/// The pixel rectangle `[u0, v0, u1, v1]` (inclusive; clipped to the image when the cells are
+/// built) whose depth cells the filter reads for `obs`: the mask's bounding box grown by
+/// `region_margin` times its larger side.
+fn cells_region(obs: &Observation, cfg: &PoseConfig) -> [u32; 4] {
+    let mr = &obs.mask_rows;
+    let grow = (mr.width.max(mr.height) as f64 * cfg.region_margin.max(0.0)).ceil() as u32;
+    [
+        mr.u0.saturating_sub(grow),
+        mr.v0.saturating_sub(grow),
+        mr.u0.saturating_add(mr.width).saturating_add(grow),
+        mr.v0.saturating_add(mr.height).saturating_add(grow),
+    ]
+}
+
+/// The settings the cached depth cells were built with.
+fn cells_key(cfg: &PoseConfig) -> (u32, u64) {
+    (cfg.depth_filter.cell_px, cfg.region_margin.to_bits())
+}
+
+/// Fills `obs`'s depth-cell cache from `frame_cells`, cells of the whole depth map `obs` was
+/// built from ([`CellMinDepth::full`] with `cfg.depth_filter.cell_px`), so that
+/// [`estimate_pose`] copies its region instead of reading the pixels again: a frame's masks
+/// share one pass over the depth map. The estimates are the same. Does nothing when the cache
+/// is already filled or the cell sizes differ.
+pub fn share_frame_cells(obs: &Observation, frame_cells: &CellMinDepth, cfg: &PoseConfig) {
+    if frame_cells.cell_px != cfg.depth_filter.cell_px.max(1) || obs.cache.cells.get().is_some() {
+        return;
+    }
+    let [u0, v0, u1, v1] = cells_region(obs, cfg);
+    if let Some(cells) = frame_cells.window(u0, v0, u1, v1) {
+        let key = cells_key(cfg);
+        // Already filled (by another thread): that one is the same.
+        let _ = obs.cache.cells.set((key.0, key.1, cells));
+    }
+}
+
 /// Per-call context shared by every hypothesis (built once in [`estimate_pose`]).
 pub struct ScoringContext<'a> {
     obs: &'a Observation,
@@ -193,18 +229,10 @@ impl<'a> ScoringContext<'a> {
         cfg: &PoseConfig,
     ) -> Self {
         let build = || {
-            let mr = &obs.mask_rows;
-            let grow = (mr.width.max(mr.height) as f64 * cfg.region_margin.max(0.0)).ceil() as u32;
-            CellMinDepth::new(
-                depth,
-                cfg.depth_filter.cell_px,
-                mr.u0.saturating_sub(grow),
-                mr.v0.saturating_sub(grow),
-                mr.u0.saturating_add(mr.width).saturating_add(grow),
-                mr.v0.saturating_add(mr.height).saturating_add(grow),
-            )
+            let [u0, v0, u1, v1] = cells_region(obs, cfg);
+            CellMinDepth::new(depth, cfg.depth_filter.cell_px, u0, v0, u1, v1)
         };
-        let key = (cfg.depth_filter.cell_px, cfg.region_margin.to_bits());
+        let key = cells_key(cfg);
         let cached = obs.cache.cells.get_or_init(|| (key.0, key.1, build()));
         let cells = if (cached.0, cached.1) == key {
             Cow::Borrowed(&cached.2)
