@@ -1416,7 +1416,7 @@ fn side_strips(
         }
     };
     let (w, h) = (g.w, g.h);
-    let mut seen: std::collections::HashSet<u32> = cells.iter().copied().collect();
+    let mut seen: rustc_hash::FxHashSet<u32> = cells.iter().copied().collect();
     let mut stack: Vec<u32> = cells.to_vec();
     let mut found: [Vec<u32>; 5] = Default::default();
     while let Some(i) = stack.pop() {

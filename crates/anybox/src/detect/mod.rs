@@ -1898,7 +1898,7 @@ impl Grow<'_> {
             sizes.push(n);
         }
         let mut added: Vec<Vec<usize>> = vec![Vec::new(); masks.len()];
-        let mut refs: std::collections::HashMap<(usize, usize, usize), Option<FaceRef>> =
+        let mut refs: rustc_hash::FxHashMap<(usize, usize, usize), Option<FaceRef>> =
             Default::default();
         let nbrs = |i: usize| {
             let (u, v) = (i % w, i / w);
@@ -1997,7 +1997,7 @@ impl Grow<'_> {
             if min <= 1 || px.is_empty() {
                 continue;
             }
-            let mut seen: std::collections::HashSet<usize> = Default::default();
+            let mut seen: rustc_hash::FxHashSet<usize> = Default::default();
             let mut keep = Vec::with_capacity(px.len());
             for &start in px.iter() {
                 if !seen.insert(start) {
