@@ -216,6 +216,12 @@ fn ransac_plane(
         return None;
     }
     let mut best: Option<(usize, Vector3<f64>, Point3<f64>)> = None;
+    // Coordinates and tolerances as separate arrays: each hypothesis' count then vectorises.
+    // (`(p - a).dot(&n)` term by term, in nalgebra's order: the same counts.)
+    let xs: Vec<f64> = pts.iter().map(|p| p.x).collect();
+    let ys: Vec<f64> = pts.iter().map(|p| p.y).collect();
+    let zs: Vec<f64> = pts.iter().map(|p| p.z).collect();
+    let tols: Vec<f64> = pts.iter().map(&tol).collect();
     for _ in 0..iters {
         let (a, b, c) = (
             pts[rng.random_range(0..pts.len())],
@@ -228,9 +234,14 @@ fn ransac_plane(
         if !accept(&n) {
             continue;
         }
-        let count = pts
+        let count = xs
             .iter()
-            .filter(|p| (*p - a).dot(&n).abs() <= tol(p))
+            .zip(&ys)
+            .zip(&zs)
+            .zip(&tols)
+            .filter(|(((x, y), z), t)| {
+                ((*x - a.x) * n.x + (*y - a.y) * n.y + (*z - a.z) * n.z).abs() <= **t
+            })
             .count();
         if best.as_ref().is_none_or(|x| count > x.0) {
             best = Some((count, n, a));
