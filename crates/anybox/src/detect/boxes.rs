@@ -337,12 +337,16 @@ fn support_tests(g: &Grid, reg: &Region, cells: &[usize], cfg: &DetectConfig) ->
 /// Distance from `p` to the boundary of the polygon `poly` (its edges), in its units.
 fn boundary_distance(poly: &[Point2<f64>], p: &Point2<f64>) -> f64 {
     let mut best = f64::INFINITY;
-    for k in 0..poly.len() {
-        let a = poly[k];
-        let b = poly[(k + 1) % poly.len()];
+    let Some(&last) = poly.last() else {
+        return best;
+    };
+    // Every edge once, the closing one first (no index wraps).
+    let mut a = last;
+    for &b in poly {
         let ab = b - a;
         let t = ((p - a).dot(&ab) / ab.norm_squared().max(1e-12)).clamp(0.0, 1.0);
         best = best.min((p - (a + ab * t)).norm());
+        a = b;
     }
     best
 }
@@ -507,24 +511,35 @@ impl PlaneCell {
     }
 }
 
-/// Point in a convex polygon (either orientation).
+/// Point in a convex polygon (either orientation; no three vertices collinear, as
+/// [`convex_hull_2d`] gives it), its boundary included: in the wedge at the first vertex,
+/// then on the inner side of the edge of the fan triangle holding the point's direction,
+/// found by bisection (the support tests ask this of every third cell of the frame, per
+/// plane).
 fn inside_convex(poly: &[Point2<f64>], p: &Point2<f64>) -> bool {
-    if poly.len() < 3 {
+    let n = poly.len();
+    if n < 3 {
         return false;
     }
-    let mut sign = 0.0f64;
-    for k in 0..poly.len() {
-        let a = poly[k];
-        let b = poly[(k + 1) % poly.len()];
-        let c = (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
-        if c != 0.0 {
-            if sign != 0.0 && c.signum() != sign {
-                return false;
-            }
-            sign = c.signum();
+    // Twice the signed area of (a, b, p): positive with p left of a → b.
+    let cross =
+        |a: &Point2<f64>, b: &Point2<f64>| (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
+    let o = &poly[0];
+    let turn = (poly[1].x - o.x) * (poly[2].y - o.y) - (poly[1].y - o.y) * (poly[2].x - o.x);
+    let s = if turn >= 0.0 { 1.0 } else { -1.0 };
+    if s * cross(o, &poly[1]) < 0.0 || s * cross(&poly[n - 1], o) < 0.0 {
+        return false;
+    }
+    let (mut lo, mut hi) = (1, n - 1);
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        if s * cross(o, &poly[mid]) >= 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
         }
     }
-    true
+    s * cross(&poly[lo], &poly[hi]) >= 0.0
 }
 
 /// Whether a region can be a box face: big enough, planar, not curved.
@@ -1862,6 +1877,44 @@ mod tests {
                 .fold(f64::INFINITY, f64::min);
             let d = boundary_distance(&poly, &p);
             assert!((d - brute).abs() < 0.02, "({x}, {y}): {d} against {brute}");
+        }
+    }
+
+    proptest::proptest! {
+        /// The bisection answers as the plain test over every edge (inside when no edge has
+        /// the point strictly on its outer side), on hulls of random points in either
+        /// orientation, at random points, the vertices and the edges' midpoints.
+        #[test]
+        fn inside_convex_matches_the_test_of_every_edge(
+            pts in proptest::collection::vec((-50.0f64..50.0, -50.0f64..50.0), 3..40),
+            queries in proptest::collection::vec((-60.0f64..60.0, -60.0f64..60.0), 1..40),
+            reversed in proptest::bool::ANY,
+        ) {
+            let pts: Vec<Point2<f64>> = pts.iter().map(|&(x, y)| Point2::new(x, y)).collect();
+            let mut hull = convex_hull_2d(&pts);
+            if reversed {
+                hull.reverse();
+            }
+            let every_edge = |p: &Point2<f64>| {
+                let n = hull.len();
+                let c: Vec<f64> = (0..n)
+                    .map(|k| {
+                        let (a, b) = (hull[k], hull[(k + 1) % n]);
+                        (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x)
+                    })
+                    .collect();
+                n >= 3 && (c.iter().all(|&x| x >= 0.0) || c.iter().all(|&x| x <= 0.0))
+            };
+            let mut probes: Vec<Point2<f64>> =
+                queries.iter().map(|&(x, y)| Point2::new(x, y)).collect();
+            probes.extend(hull.iter().copied());
+            for k in 0..hull.len() {
+                let b = hull[(k + 1) % hull.len()];
+                probes.push(Point2::from((hull[k].coords + b.coords) / 2.0));
+            }
+            for p in &probes {
+                proptest::prop_assert_eq!(inside_convex(&hull, p), every_edge(p), "{:?}", p);
+            }
         }
     }
 }
