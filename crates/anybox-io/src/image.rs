@@ -64,6 +64,12 @@ pub struct Mask {
     pub data: Vec<bool>,
 }
 
+impl AsRef<Mask> for Mask {
+    fn as_ref(&self) -> &Mask {
+        self
+    }
+}
+
 impl Mask {
     /// An empty mask of the given size.
     pub fn empty(width: u32, height: u32) -> Self {

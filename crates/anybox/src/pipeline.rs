@@ -368,11 +368,12 @@ pub fn detected_mask_roles(
 /// [`estimate_frame_with_alternatives`] with the second try chosen per mask (`roles[i]`;
 /// missing entries: a plain mask with a second try). The built-in detector's path
 /// (`runner::run_frame`) gives none to alternatives and to detections scored below
-/// `detect.estimate_retry_min_detection_score`.
-pub fn estimate_frame_with_roles(
+/// `detect.estimate_retry_min_detection_score`. `masks`: [`Mask`]s or anything holding one
+/// (an [`crate::segmentation::InstanceMask`]), so that a frame's masks need no copies.
+pub fn estimate_frame_with_roles<M: AsRef<Mask> + Sync>(
     depth: &DepthMap,
     intrinsics: &Intrinsics,
-    masks: &[Mask],
+    masks: &[M],
     roles: &[MaskRole],
     cfg: &Config,
 ) -> Vec<Result<BoxEstimate, EstimateError>> {
@@ -388,7 +389,7 @@ pub fn estimate_frame_with_roles(
         .enumerate()
         .map(|(i, m)| {
             let c = if role(i).retry { cfg } else { &no_retry };
-            stage_one(depth, intrinsics, m, frame_cells.as_ref(), c)
+            stage_one(depth, intrinsics, m.as_ref(), frame_cells.as_ref(), c)
         })
         .collect();
     let size_is_free = !matches!(cfg.scale.mode, ScaleMode::Canonical | ScaleMode::Oracle(_));

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use anybox_geom::Intrinsics;
 use anybox_io::bop::{BopDataset, BopView};
 use anybox_io::results::EstimateRecord;
-use anybox_io::{DepthMap, Mask};
+use anybox_io::DepthMap;
 
 use crate::config::Config;
 use crate::pipeline::{estimate_frame, BoxEstimate};
@@ -103,11 +103,10 @@ pub fn run_frame(
     masks: &[InstanceMask],
     config: &Config,
 ) -> RunOutput {
-    let plain: Vec<Mask> = masks.iter().map(|m| m.mask.clone()).collect();
     let roles = crate::pipeline::detected_mask_roles(masks, &config.detect);
     let start = Instant::now();
     let results =
-        crate::pipeline::estimate_frame_with_roles(depth, intrinsics, &plain, &roles, config);
+        crate::pipeline::estimate_frame_with_roles(depth, intrinsics, masks, &roles, config);
     // The built-in detector's masks: a tin or a rod may come as a box. In parallel, as the
     // estimates: each test back-projects its mask, and some observe it again.
     let round: Vec<f64> = masks

@@ -95,6 +95,12 @@ pub struct InstanceMask {
     pub faces: Option<u8>,
 }
 
+impl AsRef<Mask> for InstanceMask {
+    fn as_ref(&self) -> &Mask {
+        &self.mask
+    }
+}
+
 /// Loads the instance masks of one `width`×`height` px frame from a caller-side source. Every
 /// mask must have the frame's size.
 ///
