@@ -2747,7 +2747,7 @@ fn face_plane_points(
 }
 
 /// A colour candidate's face as [`face_plane_points`] gives it, fitted once when first asked.
-type FacePlane = std::cell::OnceCell<Option<(Vec<nalgebra::Vector3<f64>>, f64)>>;
+type FacePlane = std::sync::OnceLock<Option<(Vec<nalgebra::Vector3<f64>>, f64)>>;
 
 /// Least-squares plane through `pts`: unit normal, centroid (mm) and sum of squared
 /// residuals (mm²); `None` from fewer than 3 points.
@@ -2866,8 +2866,11 @@ fn select(
     cfg: &DetectConfig,
 ) -> (Vec<boxes::Raw>, Vec<boxes::Raw>) {
     let planes: Vec<FacePlane> = col.iter().map(|_| FacePlane::new()).collect();
-    let (obj_split, _, _) = split_evidence(g, &objects, &col, &planes, cfg);
-    let (geo_split, inside, free) = split_evidence(g, &geo, &col, &planes, cfg);
+    // The two are independent (the colour patches' planes, fitted once, are shared).
+    let ((obj_split, _, _), (geo_split, inside, free)) = rayon::join(
+        || split_evidence(g, &objects, &col, &planes, cfg),
+        || split_evidence(g, &geo, &col, &planes, cfg),
+    );
     let mut take_col = vec![false; col.len()];
     for (k, &s) in geo_split.iter().enumerate() {
         if s {
