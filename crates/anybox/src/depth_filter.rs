@@ -95,17 +95,7 @@ impl CellMinDepth {
     /// read as invalid where it is missing.
     pub fn new(depth: &DepthMap, cell_px: u32, u0: u32, v0: u32, u1: u32, v1: u32) -> Self {
         let c = cell_px.max(1);
-        let empty = Self {
-            cell_px: c,
-            ci0: 0,
-            cj0: 0,
-            ncu: 0,
-            ncv: 0,
-            min_mm: Vec::new(),
-            col_cell: Vec::new(),
-            row_cell: Vec::new(),
-            image_px: (depth.width, depth.height),
-        };
+        let empty = Self::covering(c, (depth.width, depth.height), 0, 0, 0, 0, Vec::new());
         if depth.width == 0 || depth.height == 0 {
             return empty;
         }
@@ -147,6 +137,20 @@ impl CellMinDepth {
                 *m = 0.0;
             }
         }
+        Self::covering(c, (depth.width, depth.height), ci0, cj0, ncu, ncv, min_mm)
+    }
+
+    /// The cells `ci0 .. ci0 + ncu` × `cj0 .. cj0 + ncv` of side `c` px holding `min_mm`, with
+    /// the lookup tables of [`Self::at`].
+    fn covering(
+        c: u32,
+        image_px: (u32, u32),
+        ci0: u32,
+        cj0: u32,
+        ncu: u32,
+        ncv: u32,
+        min_mm: Vec<f32>,
+    ) -> Self {
         let cells_of = |n: u32| (0..n * c).map(|k| k / c).collect();
         Self {
             cell_px: c,
@@ -157,7 +161,7 @@ impl CellMinDepth {
             min_mm,
             col_cell: cells_of(ncu),
             row_cell: cells_of(ncv),
-            image_px: (depth.width, depth.height),
+            image_px,
         }
     }
 
@@ -171,17 +175,7 @@ impl CellMinDepth {
         let u1 = u1.min(w.saturating_sub(1));
         let v1 = v1.min(h.saturating_sub(1));
         if w == 0 || h == 0 || u0 > u1 || v0 > v1 {
-            return Some(Self {
-                cell_px: c,
-                ci0: 0,
-                cj0: 0,
-                ncu: 0,
-                ncv: 0,
-                min_mm: Vec::new(),
-                col_cell: Vec::new(),
-                row_cell: Vec::new(),
-                image_px: self.image_px,
-            });
+            return Some(Self::covering(c, self.image_px, 0, 0, 0, 0, Vec::new()));
         }
         let (ci0, cj0, ci1, cj1) = (u0 / c, v0 / c, u1 / c, v1 / c);
         let covers = ci0 >= self.ci0
@@ -197,18 +191,7 @@ impl CellMinDepth {
             let row = (j * self.ncu + ci0 - self.ci0) as usize;
             min_mm.extend_from_slice(&self.min_mm[row..row + ncu as usize]);
         }
-        let cells_of = |n: u32| (0..n * c).map(|k| k / c).collect();
-        Some(Self {
-            cell_px: c,
-            ci0,
-            cj0,
-            ncu,
-            ncv,
-            min_mm,
-            col_cell: cells_of(ncu),
-            row_cell: cells_of(ncv),
-            image_px: self.image_px,
-        })
+        Some(Self::covering(c, self.image_px, ci0, cj0, ncu, ncv, min_mm))
     }
 
     /// Cells covering the whole image.
