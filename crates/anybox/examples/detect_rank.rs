@@ -74,12 +74,11 @@ fn main() {
             ) else {
                 continue;
             };
-            let plain: Vec<_> = masks.iter().map(|m| m.mask.clone()).collect();
             let roles = pipeline::detected_mask_roles(&masks, &est_cfg.detect);
             let results = pipeline::estimate_frame_with_roles(
                 &f.depth,
                 &f.intrinsics,
-                &plain,
+                &masks,
                 &roles,
                 &est_cfg,
             );

@@ -378,7 +378,6 @@ pub fn estimate_frame_with_roles<M: AsRef<Mask> + Sync>(
     cfg: &Config,
 ) -> Vec<Result<BoxEstimate, EstimateError>> {
     let role = |i: usize| roles.get(i).copied().unwrap_or(MaskRole::of(false));
-    let alternative: Vec<bool> = (0..masks.len()).map(|i| role(i).alternative).collect();
     let mut no_retry = cfg.clone();
     no_retry.observation.retry_below_score = 0.0;
     // One pass over the depth map for the filter's cells of every mask (the same cells).
@@ -402,7 +401,7 @@ pub fn estimate_frame_with_roles<M: AsRef<Mask> + Sync>(
                 pose: s.pose,
                 sources: s.sources,
                 score: s.score,
-                shares: !alternative.get(i).copied().unwrap_or(false),
+                shares: !role(i).alternative,
             })
             .collect();
         let updates = share_layer_heights(&members, &cfg.context);
@@ -2319,9 +2318,8 @@ mod tests {
             roles.iter().map(|r| r.retry).collect::<Vec<_>>(),
             [false, true, true]
         );
-        let plain: Vec<Mask> = masks.iter().map(|m| m.mask.clone()).collect();
-        let got = estimate_frame_with_roles(&depth, &k, &plain, &roles, &always);
-        let first = estimate_frame(&depth, &k, &plain[..1], &off)
+        let got = estimate_frame_with_roles(&depth, &k, &masks, &roles, &always);
+        let first = estimate_frame(&depth, &k, std::slice::from_ref(&leaky), &off)
             .remove(0)
             .unwrap();
         // Premise: the second try changes this mask's estimate.
