@@ -686,13 +686,13 @@ mod tests {
         }
     }
 
-    /// A generated table view (seed 2026, view 11) where the detector cuts a carton in two at
-    /// its flap seam: the run returns the union as an alternative, flagged, scored below both
-    /// parts, and closer to the carton than either part. (View 12's carton, used before, is
-    /// now found whole: `detect.band_face_alternatives`.)
+    /// A generated table view (seed 2026, view 13) where the detector cuts a carton in two:
+    /// the run returns the union as an alternative, flagged, scored below both parts, and
+    /// closer to the carton than either part. (The cartons of views 12 and 11, used before,
+    /// are now found whole: `detect.band_face_alternatives`, `detect.halves_top_min_aspect`.)
     #[test]
     fn detected_frame_adds_flagged_union_of_a_split_carton() {
-        let v = crate::detect::tests::table_d0_view(11);
+        let v = crate::detect::tests::table_d0_view(13);
         // The readings' own scores, before the duplicate pass rescales some (its own test:
         // `a_second_reading_of_a_carton_ranks_below_the_first_reading_of_another`).
         let mut config = Config::default();

@@ -16,6 +16,11 @@
 //! no flap seam, and on a layer of one product neither do the others), chains with no clean
 //! end, and chains of odd length with two clean ends.
 //!
+//! Where the support's up is known, only tops chain (`halves_side_chains`): the fronts of
+//! cartons stacked flush, one above the other, chain just as halves do. A top may chain at any
+//! aspect (`halves_top_min_aspect`): the flap seam may run along the top's short side, and its
+//! halves are then nearly square.
+//!
 //! Two plain boxes (no flap seam) side by side look the same from above. Where an end face
 //! shows, the joint between them runs on down it and a flap seam does not, so two patches
 //! whose line is seen on an end face are not linked (`halves_joint_check`). Where no end face
@@ -59,6 +64,7 @@ pub(crate) fn pair_halves(
     labels: &mut [u32],
     regions: &[Region],
     strip: &[bool],
+    up: Option<Vector3<f64>>,
     cfg: &DetectConfig,
 ) -> usize {
     let n = regions.len();
@@ -88,7 +94,7 @@ pub(crate) fn pair_halves(
             })
         })
         .collect();
-    let patches = Patches { rects };
+    let patches = Patches { rects, up };
     let mut parent: Vec<usize> = (0..n).collect();
     let mut joined = patches.pair_chains(g, &mut parent, cfg);
     if cfg.halves_isolated_pairs {
@@ -105,6 +111,7 @@ pub(crate) fn pair_halves(
 /// face, `bridge_tape` moved cells into it, it has tape along its middle, or it is degenerate.
 struct Patches {
     rects: Vec<Option<Half>>,
+    up: Option<Vector3<f64>>,
 }
 
 impl Patches {
@@ -118,7 +125,7 @@ impl Patches {
             .rects
             .iter()
             .flatten()
-            .filter(|h| elongated(h, cfg))
+            .filter(|h| elongated(h, self.up, cfg))
             .cloned()
             .collect();
         if halves.len() < 2 {
@@ -364,8 +371,14 @@ fn seam_frame(h: &Half, towards: &Vector3<f64>) -> Half {
 }
 
 /// Whether a region's rectangle is elongated enough to be a half.
-fn elongated(h: &Half, cfg: &DetectConfig) -> bool {
-    h.len_mm >= cfg.halves_min_aspect * h.width_mm
+fn elongated(h: &Half, up: Option<Vector3<f64>>, cfg: &DetectConfig) -> bool {
+    let top = up.map(|u| h.normal.dot(&u).abs() >= cfg.halves_top_max_tilt_deg.to_radians().cos());
+    let min_aspect = match top {
+        Some(true) if cfg.halves_top_min_aspect > 0.0 => cfg.halves_top_min_aspect,
+        Some(false) if !cfg.halves_side_chains => return false,
+        _ => cfg.halves_min_aspect,
+    };
+    h.len_mm >= min_aspect * h.width_mm
 }
 
 /// A planar region as a rectangle along its in-plane principal axes (`long` the longer side);

@@ -804,8 +804,27 @@ pub struct DetectConfig {
     /// Flap-seam halves (see `halves`): a single-face candidate at least this many times as
     /// long as wide may be half a carton top; chains of such halves pair off from a carton's
     /// edge into whole tops. 0 disables pairing (this and `halves_isolated_pairs`). Default
-    /// 1.6 (a half of an L × W top with L ≥ W is L × W/2, aspect ≥ 2).
+    /// 1.6 (a half of an L × W top with L ≥ W is L × W/2, aspect ≥ 2). Where the support's
+    /// up is known, tops follow `halves_top_min_aspect` instead and other faces
+    /// `halves_side_chains`.
     pub halves_min_aspect: f64,
+    /// Where the support's up is known, a top (a patch within `halves_top_max_tilt_deg` of
+    /// it) may be a half in a chain from this aspect on, whatever `halves_min_aspect` says: a
+    /// carton's flap seam runs along one side of its top, not always the long one (a 250 × 377
+    /// mm top cut along its 250 mm side gives two 250 × 188 mm halves, aspect 1.33, and a
+    /// layer of such cartons came out as half-cartons: seed 7, pallet view 38). 1 takes every
+    /// top; 0 leaves tops to `halves_min_aspect`. Default 1 (with the three settings below
+    /// and `halves_tape_band_contrast` 7; see `halves_tape_band_contrast` for the bench).
+    pub halves_top_min_aspect: f64,
+    /// A patch within this many degrees of the support's up is a top for
+    /// `halves_top_min_aspect` and `halves_side_chains`. Default 45 (20 left out a carton
+    /// lying tilted by 25° on the table, whose top's halves chain: seed 5, table view 21).
+    pub halves_top_max_tilt_deg: f64,
+    /// Where the support's up is known, patches that are not tops chain as halves too. Off by
+    /// default: a layer is horizontal, and the fronts of two cartons stacked flush, one above
+    /// the other, make a chain of two long coplanar patches that paired into one face (seed 7,
+    /// pallet view 25). The isolated pairs (`halves_isolated_pairs`) still take any face.
+    pub halves_side_chains: bool,
     /// Two halves agree in length, width and position along their shared side within this
     /// ratio (shorter / longer). Default 0.8.
     pub halves_min_ratio: f64,
@@ -849,10 +868,18 @@ pub struct DetectConfig {
     /// whole length, differing from the patch's outer parts by at least this, RGB levels, is
     /// a whole taped top and is not paired as a half by either pass: two flush cartons, each
     /// with its tape along its middle, looked like the halves of one carton's top, their
-    /// joint like its flap seam (seed 2026, pallet view 33). 0 disables. Default 25 (as
-    /// `tape_min_contrast`; bench, 48 views, six seeds 2026 / 7 / 11 / 3 / 5 / 13, mean
-    /// AP@0.5 of the pallets against 0: 0.6573 → 0.6620, every other row unchanged; 15 and
-    /// 40 gave the same figures on every row).
+    /// joint like its flap seam (seed 2026, pallet view 33). 0 disables. Default 7 (25 before
+    /// tops of any aspect chained, `halves_top_min_aspect`: bench, 48 views, six seeds 2026 /
+    /// 7 / 11 / 3 / 5 / 13, mean AP@0.5 of the pallets against 0: 0.6573 → 0.6620, every
+    /// other row unchanged, and 15 and 40 the same; with every top in the chains, whole taped
+    /// tops whose tape differs by 8–15 levels paired off with their neighbours: seed 11,
+    /// pallet view 23. Plain faces measure 0–1 levels. With the three settings above, against
+    /// the settings before: mean AP@0.5 of the 30 rows 0.7384 → 0.7424, pallets 0.7767 →
+    /// 0.7870, tables +0.003 each, shelves +0.0004, no row lower by more than 0.005. Parts:
+    /// the side chains off alone (tops at 45°) 0.7401, pallets 0.7847; tops of any aspect
+    /// with side chains, tops at 20° and contrast 25, 0.7377, pallets 0.7638; contrast 10
+    /// instead of 7, 0.7420, pallets 0.7852; tops from aspect 1.2, seed 2026's tables 0.806 /
+    /// 0.798 / 0.778 against 0.812 / 0.804 / 0.784, the other three seeds run the same).
     pub halves_tape_band_contrast: f64,
     /// "Next to" for `split_min_seam_cells`: within this many cells. Default 3.
     pub split_seam_reach_cells: u32,
@@ -1401,7 +1428,10 @@ impl Default for DetectConfig {
             split_flap_check: true,
             split_flap_max_colour_delta: 40.0,
             halves_min_aspect: 1.6,
-            halves_tape_band_contrast: 25.0,
+            halves_top_min_aspect: 1.0,
+            halves_top_max_tilt_deg: 45.0,
+            halves_side_chains: false,
+            halves_tape_band_contrast: 7.0,
             halves_min_ratio: 0.8,
             halves_gap_mm: 15.0,
             halves_joint_check: true,
@@ -2125,7 +2155,8 @@ fn pool(g: &grid::Grid, rgb: Option<&RgbImage>, cfg: &DetectConfig) -> Pool {
                     let mut strip = vec![false; g.z.len()];
                     let n_patches = regions::bridge_tape(g, &mut labels, &patches, &mut strip, cfg);
                     let patches = regions::fit_regions(g, &labels, n_patches, cfg);
-                    let n_joined = halves::pair_halves(g, &mut labels, &patches, &strip, cfg);
+                    let n_joined =
+                        halves::pair_halves(g, &mut labels, &patches, &strip, side_up, cfg);
                     let patches = if n_joined == n_patches {
                         patches
                     } else {

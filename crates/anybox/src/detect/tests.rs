@@ -671,6 +671,47 @@ fn flap_seam_halves_pair_into_whole_tops_seen_from_above() {
     );
 }
 
+/// Two identical cartons stacked, seen from low in front: their fronts are two long coplanar
+/// patches one above the other, as a top's two flap-seam halves are side by side. A layer is
+/// horizontal, so where the support's up is known only tops chain as halves
+/// (`halves_side_chains`): the cartons stay two.
+#[test]
+fn stacked_fronts_are_not_taken_for_halves() {
+    let s = Scene::with_elevation(25.0);
+    let size = Vector3::new(400.0, 250.0, 150.0);
+    let rot = s.standing(0.0);
+    let cartons: Vec<OrientedBox> = (0..2)
+        .map(|j| OrientedBox {
+            rotation: rot,
+            center_mm: s.on_table(0.0, 0.0, size.z * (j as f64 + 0.5)),
+            size_mm: size,
+        })
+        .collect();
+    let (rgb, depth, owner) = render_cartons(&s, &cartons, false);
+    let best = |cfg: &DetectConfig| -> Vec<f64> {
+        let dets = detect_boxes(Some(&rgb), &depth, &k(), cfg).unwrap();
+        (0..2)
+            .map(|k| best_iou_among(&dets, &mask_of(&owner, k as u8)))
+            .collect()
+    };
+    let found = best(&DetectConfig::default());
+    let chained = best(&DetectConfig {
+        halves_side_chains: true,
+        ..DetectConfig::default()
+    });
+    eprintln!("separate {found:?}, with side faces in chains {chained:?}");
+    // The lower carton shows its front alone (0.79 measured; merged, 0.60).
+    assert!(
+        found.iter().all(|&x| x > 0.75),
+        "each carton on its own, mask IoU per carton: {found:?}"
+    );
+    // Premise: the two fronts pass for the halves of one face.
+    assert!(
+        chained.iter().any(|&x| x < 0.7),
+        "the fronts were not paired with side faces in chains: premise gone ({chained:?})"
+    );
+}
+
 /// Two boxes of the same colour touching side by side, one taller: their fronts are flush and
 /// coplanar, so only the step between their tops (a concave crease, two parallel top planes)
 /// tells them apart.
@@ -1439,6 +1480,61 @@ fn taped_tops_side_by_side_are_not_taken_for_halves() {
     assert!(
         paired.iter().all(|&x| x < 0.7),
         "best mask IoUs without the band test {paired:?}"
+    );
+}
+
+#[test]
+fn halves_of_tops_cut_along_their_short_side_pair_into_whole_tops() {
+    // Generated pallet scene (seed 7, scene 38, `SEED=7 ONLY=pallet VIEW=38` with
+    // `detect_dev 48`): a top layer of 250 × 377 × 386 mm cartons whose flap seams run along
+    // their 250 mm side, so each top's halves are 250 × 188 mm, too square for
+    // `halves_min_aspect`. Each carton came out as its front and the near half of its top
+    // (3D IoU 0.50). The two front cartons seen whole are checked.
+    let v = pallet_view(7, 48, 38);
+    let layer = visible_masks_of_size(&v, [250.0, 377.0, 386.0], 0.9);
+    assert_eq!(layer.len(), 2, "the generator's layer changed");
+    let found = best_primary_ious(&v, &layer, &DetectConfig::default());
+    assert!(found.iter().all(|&x| x > 0.9), "best mask IoUs {found:?}");
+    // Premise: with tops held to `halves_min_aspect`, each carton loses half its top.
+    let halved = best_primary_ious(
+        &v,
+        &layer,
+        &DetectConfig {
+            halves_top_min_aspect: 0.0,
+            ..DetectConfig::default()
+        },
+    );
+    assert!(
+        halved.iter().all(|&x| x < 0.85),
+        "best mask IoUs with tops held to the aspect {halved:?}"
+    );
+}
+
+#[test]
+fn whole_tops_with_a_faint_tape_are_not_taken_for_halves() {
+    // Generated pallet scene (seed 11, scene 23, `SEED=11 ONLY=pallet VIEW=23` with
+    // `detect_dev 48`): a layer of 378 × 314 × 238 mm cartons, each top whole with its tape
+    // along the middle only 8–15 RGB levels lighter. Tops chain at any aspect
+    // (`halves_top_min_aspect`), and without a test for so faint a band, each front top
+    // paired off with the one behind it. The two cartons seen best are checked.
+    let v = pallet_view(11, 48, 23);
+    let layer = visible_masks_of_size(&v, [238.0, 314.0, 378.0], 0.85);
+    assert_eq!(layer.len(), 2, "the generator's layer changed");
+    let found = best_primary_ious(&v, &layer, &DetectConfig::default());
+    assert!(found.iter().all(|&x| x > 0.85), "best mask IoUs {found:?}");
+    // Premise: at the band contrast of 25 levels the tops pair across the joint.
+    let paired = best_primary_ious(
+        &v,
+        &layer,
+        &DetectConfig {
+            halves_tape_band_contrast: 25.0,
+            ..DetectConfig::default()
+        },
+    );
+    eprintln!("whole {found:?}, at contrast 25 {paired:?}");
+    assert!(
+        paired.iter().all(|&x| x < 0.8),
+        "best mask IoUs at contrast 25 {paired:?}"
     );
 }
 
