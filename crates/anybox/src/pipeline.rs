@@ -579,14 +579,18 @@ pub struct TiledUnion {
     /// The union cuboid, camera frame, mm (in the first part's axes).
     pub pose: OrientedBox,
     /// The lower of the two parts' scores times
-    /// [`DetectConfig::tiled_union_score_factor`](crate::detect::DetectConfig::tiled_union_score_factor).
+    /// [`DetectConfig::tiled_union_score_factor`](crate::detect::DetectConfig::tiled_union_score_factor),
+    /// and times
+    /// [`DetectConfig::tiled_union_repeated_part_factor`](crate::detect::DetectConfig::tiled_union_repeated_part_factor)
+    /// where another estimate of the frame measures like a part and none like the union.
     pub score: f64,
 }
 
 /// Alternative readings for a frame's estimates from detected masks (`boxes`: pose and
 /// score of each): every pair that tiles one cuboid ([`tiled_union`]) and barely overlaps
 /// (`tiled_union_max_shared`, default 10 % of the smaller part's volume) gives its union, scored below both
-/// parts. Empty when `tiled_union_score_factor` is 0.
+/// parts, and lower again where the frame holds another carton of a part's size but none of
+/// the union's ([`TiledUnion::score`]). Empty when `tiled_union_score_factor` is 0.
 ///
 /// Why: the detector cuts a carton in two at its own flap seam or tape when nothing tells
 /// that seam from the joint of two flush cartons; each half then gets a half-size estimate
@@ -755,12 +759,46 @@ fn union_pairs(
     pairs
         .iter()
         .filter(|([a, b], u)| keep(&boxes[*a].0, &boxes[*b].0, u))
-        .map(|&(parts, pose)| TiledUnion {
-            parts,
-            pose,
-            score: boxes[parts[0]].1.min(boxes[parts[1]].1) * cfg.tiled_union_score_factor,
+        .map(|&(parts, pose)| {
+            let repeated = |b: &OrientedBox| size_repeated_apart(boxes, parts, b, cfg);
+            let part_repeated = parts.iter().any(|&p| repeated(&boxes[p].0));
+            let factor = if part_repeated && !repeated(&pose) {
+                cfg.tiled_union_repeated_part_factor
+            } else {
+                1.0
+            };
+            TiledUnion {
+                parts,
+                pose,
+                score: boxes[parts[0]].1.min(boxes[parts[1]].1)
+                    * cfg.tiled_union_score_factor
+                    * factor,
+            }
         })
         .collect()
+}
+
+/// Whether a box of `boxes` other than the two `parts` measures like `b` (sorted extents,
+/// each within `repeat_split_tol` of `b`'s) and lies apart from it (sharing at most
+/// `tiled_union_max_shared` of the smaller volume): another carton of `b`'s size.
+fn size_repeated_apart(
+    boxes: &[(OrientedBox, f64)],
+    parts: [usize; 2],
+    b: &OrientedBox,
+    cfg: &crate::detect::DetectConfig,
+) -> bool {
+    let e = crate::repeat::sorted_extents_mm(b);
+    boxes
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !parts.contains(i))
+        .any(|(_, (o, _))| {
+            let f = crate::repeat::sorted_extents_mm(o);
+            let alike = (0..3).all(|a| (f[a] / e[a] - 1.0).abs() <= cfg.repeat_split_tol);
+            alike
+                && anybox_geom::iou::intersection_volume_mm3(b, o)
+                    <= cfg.tiled_union_max_shared * b.volume_mm3().min(o.volume_mm3())
+        })
 }
 
 /// How a [`RepeatReading`] reads its source estimate.
@@ -1624,6 +1662,56 @@ mod tests {
             ..cfg
         };
         assert!(tiled_unions(&boxes, &off).is_empty());
+    }
+
+    #[test]
+    fn a_union_of_parts_whose_size_the_frame_repeats_ranks_lower() {
+        let (whole, a, b) = halves(150.0);
+        let cfg = crate::detect::DetectConfig::default();
+        let f = cfg.tiled_union_score_factor;
+        // Another box 1 m to the side, apart from both parts.
+        let elsewhere = |size: Vector3<f64>| OrientedBox {
+            center_mm: whole.center_mm + Vector3::new(1000.0, 0.0, 0.0),
+            size_mm: size,
+            ..whole
+        };
+        let union_score = |third: OrientedBox| {
+            let u = tiled_unions(&[(a, 0.8), (b, 0.6), (third, 0.7)], &cfg);
+            let ab = u.iter().find(|u| u.parts == [0, 1]);
+            ab.expect("the two parts' union").score
+        };
+        // A carton of a part's size elsewhere: the parts are two cartons. (The parts are
+        // 150 × 300 × 200 and 300 × 250 × 200 mm.)
+        let part_size = Vector3::new(150.0, 300.0, 200.0);
+        let scaled = 0.6 * f * cfg.tiled_union_repeated_part_factor;
+        assert!((union_score(elsewhere(part_size)) - scaled).abs() < 1e-12);
+        // One of the union's size too: the frame holds both, and the union keeps its score.
+        let u = tiled_unions(
+            &[
+                (a, 0.8),
+                (b, 0.6),
+                (elsewhere(part_size), 0.7),
+                (elsewhere(whole.size_mm), 0.7),
+            ],
+            &cfg,
+        );
+        assert!(u
+            .iter()
+            .any(|u| u.parts == [0, 1] && (u.score - 0.6 * f).abs() < 1e-12));
+        // Nothing of a part's size (12 % is the tolerance): no change.
+        let other = Vector3::new(150.0, 300.0, 240.0);
+        assert!((union_score(elsewhere(other)) - 0.6 * f).abs() < 1e-12);
+        // A box of a part's size that overlaps the part is a second estimate of it, not
+        // another carton.
+        let on_a = OrientedBox { ..a };
+        assert!((union_score(on_a) - 0.6 * f).abs() < 1e-12);
+        // 1 disables it.
+        let off = crate::detect::DetectConfig {
+            tiled_union_repeated_part_factor: 1.0,
+            ..cfg.clone()
+        };
+        let u = tiled_unions(&[(a, 0.8), (b, 0.6), (elsewhere(part_size), 0.7)], &off);
+        assert!((u[0].score - 0.6 * f).abs() < 1e-12);
     }
 
     #[test]
