@@ -591,6 +591,18 @@ fn render_cartons(s: &Scene, cartons: &[OrientedBox], flap: bool) -> (RgbImage, 
     (rgb, depth, owner)
 }
 
+/// `cartons` rendered plain (no flap seam) as [`render_cartons`] does, detected with each of
+/// `cfgs`: per configuration, each carton's best mask IoU with a detection.
+fn carton_ious(s: &Scene, cartons: &[OrientedBox], cfgs: [&DetectConfig; 2]) -> [Vec<f64>; 2] {
+    let (rgb, depth, owner) = render_cartons(s, cartons, false);
+    cfgs.map(|cfg| {
+        let dets = detect_boxes(Some(&rgb), &depth, &k(), cfg).unwrap();
+        (0..cartons.len())
+            .map(|k| best_iou_among(&dets, &mask_of(&owner, k as u8)))
+            .collect()
+    })
+}
+
 /// Two plain boxes (no flap seam), long and narrow, touching along their long sides, seen from
 /// 50° above: their tops look like the two halves of one carton, but the joint runs on down
 /// their end faces, so they stay two boxes.
@@ -610,18 +622,11 @@ fn touching_plain_boxes_are_not_taken_for_halves() {
             size_mm: size,
         })
         .collect();
-    let (rgb, depth, owner) = render_cartons(&s, &cartons, false);
-    let best = |cfg: &DetectConfig| -> Vec<f64> {
-        let dets = detect_boxes(Some(&rgb), &depth, &k(), cfg).unwrap();
-        (0..2)
-            .map(|k| best_iou_among(&dets, &mask_of(&owner, k as u8)))
-            .collect()
-    };
-    let found = best(&DetectConfig::default());
-    let paired = best(&DetectConfig {
+    let no_joint_check = DetectConfig {
         halves_joint_check: false,
         ..DetectConfig::default()
-    });
+    };
+    let [found, paired] = carton_ious(&s, &cartons, [&DetectConfig::default(), &no_joint_check]);
     eprintln!("separate {found:?}, without the joint check {paired:?}");
 
     assert!(
@@ -687,18 +692,11 @@ fn stacked_fronts_are_not_taken_for_halves() {
             size_mm: size,
         })
         .collect();
-    let (rgb, depth, owner) = render_cartons(&s, &cartons, false);
-    let best = |cfg: &DetectConfig| -> Vec<f64> {
-        let dets = detect_boxes(Some(&rgb), &depth, &k(), cfg).unwrap();
-        (0..2)
-            .map(|k| best_iou_among(&dets, &mask_of(&owner, k as u8)))
-            .collect()
-    };
-    let found = best(&DetectConfig::default());
-    let chained = best(&DetectConfig {
+    let side_chains = DetectConfig {
         halves_side_chains: true,
         ..DetectConfig::default()
-    });
+    };
+    let [found, chained] = carton_ious(&s, &cartons, [&DetectConfig::default(), &side_chains]);
     eprintln!("separate {found:?}, with side faces in chains {chained:?}");
     // The lower carton shows its front alone (0.79 measured; merged, 0.60).
     assert!(
@@ -1455,6 +1453,32 @@ fn best_primary_ious(
         .collect()
 }
 
+/// Pallet view `scene` of a 48-scene set of `seed` (as `detect_dev 48` shows it), its two
+/// cartons of size `sorted_mm` seen at least `min_visib`: each carton's best primary mask IoU
+/// is above `found_above` with the default configuration, and below `other_below` with
+/// `other` (the premise: what the default changed).
+fn check_layer(
+    (seed, scene): (u64, u32),
+    sorted_mm: [f64; 3],
+    min_visib: f64,
+    found_above: f64,
+    (other, other_below): (DetectConfig, f64),
+) {
+    let v = pallet_view(seed, 48, scene);
+    let layer = visible_masks_of_size(&v, sorted_mm, min_visib);
+    assert_eq!(layer.len(), 2, "the generator's layer changed");
+    let found = best_primary_ious(&v, &layer, &DetectConfig::default());
+    let without = best_primary_ious(&v, &layer, &other);
+    assert!(
+        found.iter().all(|&x| x > found_above),
+        "best mask IoUs {found:?}"
+    );
+    assert!(
+        without.iter().all(|&x| x < other_below),
+        "premise gone: best mask IoUs without the default {without:?}"
+    );
+}
+
 #[test]
 fn taped_tops_side_by_side_are_not_taken_for_halves() {
     // Generated pallet scene (seed 2026, scene 33, `SEED=2026 ONLY=pallet VIEW=33` with
@@ -1462,79 +1486,44 @@ fn taped_tops_side_by_side_are_not_taken_for_halves() {
     // its tape along the middle of its top, the tape not cut from the top by colour. The
     // joint between a front and a back carton looked like a flap seam between two halves of
     // one top, and the two came out as one box. The two front cartons are checked (the back
-    // ones are 61 % and 62 % visible).
-    let v = pallet_view(2026, 48, 33);
-    let layer = visible_masks_of_size(&v, [195.0, 304.0, 596.0], 0.9);
-    assert_eq!(layer.len(), 2, "the generator's layer changed");
-    let found = best_primary_ious(&v, &layer, &DetectConfig::default());
-    assert!(found.iter().all(|&x| x > 0.85), "best mask IoUs {found:?}");
-    // Premise: without the band test each pair of cartons is one detection.
-    let paired = best_primary_ious(
-        &v,
-        &layer,
-        &DetectConfig {
-            halves_tape_band_contrast: 0.0,
-            ..DetectConfig::default()
-        },
-    );
-    assert!(
-        paired.iter().all(|&x| x < 0.7),
-        "best mask IoUs without the band test {paired:?}"
-    );
+    // ones are 61 % and 62 % visible). Without the band test each pair is one detection.
+    let no_band = DetectConfig {
+        halves_tape_band_contrast: 0.0,
+        ..DetectConfig::default()
+    };
+    check_layer((2026, 33), [195.0, 304.0, 596.0], 0.9, 0.85, (no_band, 0.7));
 }
 
 #[test]
 fn halves_of_tops_cut_along_their_short_side_pair_into_whole_tops() {
-    // Generated pallet scene (seed 7, scene 38, `SEED=7 ONLY=pallet VIEW=38` with
-    // `detect_dev 48`): a top layer of 250 × 377 × 386 mm cartons whose flap seams run along
-    // their 250 mm side, so each top's halves are 250 × 188 mm, too square for
-    // `halves_min_aspect`. Each carton came out as its front and the near half of its top
-    // (3D IoU 0.50). The two front cartons seen whole are checked.
-    let v = pallet_view(7, 48, 38);
-    let layer = visible_masks_of_size(&v, [250.0, 377.0, 386.0], 0.9);
-    assert_eq!(layer.len(), 2, "the generator's layer changed");
-    let found = best_primary_ious(&v, &layer, &DetectConfig::default());
-    assert!(found.iter().all(|&x| x > 0.9), "best mask IoUs {found:?}");
-    // Premise: with tops held to `halves_min_aspect`, each carton loses half its top.
-    let halved = best_primary_ious(
-        &v,
-        &layer,
-        &DetectConfig {
-            halves_top_min_aspect: 0.0,
-            ..DetectConfig::default()
-        },
-    );
-    assert!(
-        halved.iter().all(|&x| x < 0.85),
-        "best mask IoUs with tops held to the aspect {halved:?}"
-    );
+    // Generated pallet scene (seed 7, scene 38): a top layer of 250 × 377 × 386 mm cartons
+    // whose flap seams run along their 250 mm side, so each top's halves are 250 × 188 mm,
+    // too square for `halves_min_aspect`. Each carton came out as its front and the near half
+    // of its top (3D IoU 0.50), as it still does with tops held to that aspect. The two front
+    // cartons seen whole are checked.
+    let held = DetectConfig {
+        halves_top_min_aspect: 0.0,
+        ..DetectConfig::default()
+    };
+    check_layer((7, 38), [250.0, 377.0, 386.0], 0.9, 0.9, (held, 0.85));
 }
 
 #[test]
 fn whole_tops_with_a_faint_tape_are_not_taken_for_halves() {
-    // Generated pallet scene (seed 11, scene 23, `SEED=11 ONLY=pallet VIEW=23` with
-    // `detect_dev 48`): a layer of 378 × 314 × 238 mm cartons, each top whole with its tape
-    // along the middle only 8–15 RGB levels lighter. Tops chain at any aspect
-    // (`halves_top_min_aspect`), and without a test for so faint a band, each front top
-    // paired off with the one behind it. The two cartons seen best are checked.
-    let v = pallet_view(11, 48, 23);
-    let layer = visible_masks_of_size(&v, [238.0, 314.0, 378.0], 0.85);
-    assert_eq!(layer.len(), 2, "the generator's layer changed");
-    let found = best_primary_ious(&v, &layer, &DetectConfig::default());
-    assert!(found.iter().all(|&x| x > 0.85), "best mask IoUs {found:?}");
-    // Premise: at the band contrast of 25 levels the tops pair across the joint.
-    let paired = best_primary_ious(
-        &v,
-        &layer,
-        &DetectConfig {
-            halves_tape_band_contrast: 25.0,
-            ..DetectConfig::default()
-        },
-    );
-    eprintln!("whole {found:?}, at contrast 25 {paired:?}");
-    assert!(
-        paired.iter().all(|&x| x < 0.8),
-        "best mask IoUs at contrast 25 {paired:?}"
+    // Generated pallet scene (seed 11, scene 23): a layer of 378 × 314 × 238 mm cartons, each
+    // top whole with its tape along the middle only 8–15 RGB levels lighter. Tops chain at
+    // any aspect (`halves_top_min_aspect`), and at the band contrast of 25 levels each front
+    // top paired off with the one behind it. The two cartons seen best are checked.
+    let strong_band = DetectConfig {
+        halves_tape_band_contrast: 25.0,
+        ..DetectConfig::default()
+    };
+    check_layer(
+        (11, 23),
+        [238.0, 314.0, 378.0],
+        0.85,
+        0.85,
+        (strong_band, 0.8),
     );
 }
 
