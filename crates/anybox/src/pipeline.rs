@@ -794,10 +794,8 @@ fn size_repeated_apart(
         .filter(|(i, _)| !parts.contains(i))
         .any(|(_, (o, _))| {
             let f = crate::repeat::sorted_extents_mm(o);
-            let alike = (0..3).all(|a| (f[a] / e[a] - 1.0).abs() <= cfg.repeat_split_tol);
-            alike
-                && anybox_geom::iou::intersection_volume_mm3(b, o)
-                    <= cfg.tiled_union_max_shared * b.volume_mm3().min(o.volume_mm3())
+            crate::repeat::measures_like(&e, &f, cfg.repeat_split_tol)
+                && !overlap_too_large(b, o, cfg)
         })
 }
 

@@ -32,6 +32,12 @@ pub(crate) fn sorted_extents_mm(b: &OrientedBox) -> [f64; 3] {
     e
 }
 
+/// Whether sorted extents `f` measure like `e` (both from [`sorted_extents_mm`]): each within
+/// `tol`, relative, of `e`'s.
+pub(crate) fn measures_like(e: &[f64; 3], f: &[f64; 3], tol: f64) -> bool {
+    (0..3).all(|a| (f[a] / e[a] - 1.0).abs() <= tol)
+}
+
 /// For each box, how many other boxes have its size turned any way (sorted extents, each
 /// within `tol`, relative, of the box's): counted greedily in order, each sharing at most
 /// `max_shared` of the smaller one's volume with the box and with every box already counted,
@@ -47,8 +53,10 @@ pub(crate) fn same_size_counts(boxes: &[OrientedBox], tol: f64, max_shared: f64)
         .map(|i| {
             let mut counted: Vec<usize> = Vec::new();
             for j in (0..sorted.len()).filter(|&j| j != i) {
-                let alike = (0..3).all(|a| (sorted[j][a] / sorted[i][a] - 1.0).abs() <= tol);
-                if alike && apart(i, j) && counted.iter().all(|&k| apart(j, k)) {
+                if measures_like(&sorted[i], &sorted[j], tol)
+                    && apart(i, j)
+                    && counted.iter().all(|&k| apart(j, k))
+                {
                     counted.push(j);
                 }
             }
