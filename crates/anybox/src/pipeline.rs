@@ -1017,7 +1017,11 @@ pub fn detection_score(
 /// [`DetectConfig::round_normals_max_ratio`](crate::detect::DetectConfig::round_normals_max_ratio)
 /// of it with at least
 /// [`DetectConfig::round_normals_min_share`](crate::detect::DetectConfig::round_normals_min_share)
-/// of the observation's normals more than 30° off every face of the estimate; else 1.
+/// of the observation's normals more than 30° off every face of the estimate, or where a
+/// face of the estimate towards the camera is a disc, not a rectangle
+/// ([`crate::roundness::face_corners`], with
+/// [`DetectConfig::round_cap_min_points`](crate::detect::DetectConfig::round_cap_min_points));
+/// else 1.
 pub fn round_factor(
     depth: &DepthMap,
     intrinsics: &Intrinsics,
@@ -1030,6 +1034,19 @@ pub fn round_factor(
         return 1.0;
     }
     let (_, points) = crate::observation::mask_points(depth, intrinsics, mask);
+    if d.round_cap_min_points > 0
+        && crate::roundness::face_corners(
+            &est.pose,
+            &points,
+            d.round_cap_min_points,
+            d.round_cap_tol_mm,
+            d.round_cap_min_empty,
+        )
+        .iter()
+        .any(|f| f.empty >= d.round_cap_min_empty)
+    {
+        return d.round_score_factor;
+    }
     let Some(c) = crate::roundness::round_cross_section(
         &est.pose,
         &points,

@@ -2,7 +2,8 @@
 //!
 //! In: a box estimate and the 3D points of the mask it came from (camera frame, mm).
 //! Out: [`CrossSection`], how well the points across one of the estimate's axes fit a circle
-//! against how well they fit the estimate's own rectangle.
+//! against how well they fit the estimate's own rectangle; [`FaceCorners`], whether a face
+//! of the estimate is a rectangle or a disc.
 //!
 //! A tin or a rod standing or lying among boxes shows a flat cap and a curved side, and the
 //! detector can group those as two faces of a box. Across the cylinder's axis the side's points
@@ -13,6 +14,9 @@
 //! 10° of arc around the circle's centre) is compared with the circle and with the rectangle of
 //! the estimate's two other extents. A thin rod's profile leaves a square by less than the depth noise; there the
 //! surface normals tell ([`share_off_faces`]): many of a rod's lie between its box's faces.
+//! A side seen over less than half its circle fits the rectangle about as well as the
+//! circle; there the cap tells ([`face_corners`]): a disc leaves the four corners of its
+//! outline empty, a box's face fills them.
 
 use anybox_geom::OrientedBox;
 use nalgebra::{Matrix3, Point3, Vector3};
@@ -145,6 +149,164 @@ pub fn share_off_faces(pose: &OrientedBox, normals: &[Vector3<f64>], off_deg: f6
         .filter(|n| axes.iter().all(|a| n.dot(a).abs() < c))
         .count();
     off as f64 / normals.len() as f64
+}
+
+/// Cosine of 75°: [`face_corners`] skips faces seen at a steeper angle.
+const MIN_FACE_COS: f64 = 0.26;
+
+/// How the face of `pose` that looks towards the camera across one axis fills the corners of
+/// its own outline, from the points (camera frame, mm) near that face's plane
+/// ([`face_corners`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FaceCorners {
+    /// The estimate's axis across the face (0, 1 or 2).
+    pub axis: usize,
+    /// Points on the face (within `tol_mm` of its plane).
+    pub points: usize,
+    /// Corners of the face's outline that hold under a quarter of the points a filled
+    /// rectangle puts there: 0 for a face seen whole, 1 or 2 where an occluder or the frame
+    /// cuts one, 4 for a disc (a tin's cap). 0 too where the points do not make a face seen
+    /// whole (see [`face_corners`]).
+    pub empty: usize,
+}
+
+/// The faces of `pose` that look towards the camera (at under 75° to the line of sight),
+/// each with at least `min_points` points within `tol_mm` of its plane, and how many
+/// corners of its outline they leave empty ([`FaceCorners`]; where its own axes leave fewer
+/// than `min_empty`, that count, else the count for the smallest outline at any turn in the
+/// plane). A cuboid's face fills its outline's corners; the flat cap of a tin or a rod,
+/// whose side the detector grouped with it as a box, is a disc (or an ellipse, where the
+/// estimate's axis is off the tin's) and leaves all four empty: the corner triangles tested
+/// (legs a fifth of the outline's sides) lie outside the inscribed ellipse. The outline is
+/// the points' 1st to 99th percentile along each side, at most about 600 points (evenly)
+/// taken; it must span 0.6 of the box's extents across the axis and have points all over
+/// its middle, else the face counts 0 (a face cut in half by an occluder, or the rim of
+/// one seen edge-on, tells a disc from a rectangle no better than chance).
+pub fn face_corners(
+    pose: &OrientedBox,
+    points_mm: &[Point3<f64>],
+    min_points: usize,
+    tol_mm: f64,
+    min_empty: usize,
+) -> Vec<FaceCorners> {
+    let local: Vec<Vector3<f64>> = points_mm.iter().map(|p| pose.to_local(p)).collect();
+    let mut out = Vec::new();
+    for k in 0..3 {
+        // The face across k whose outward normal points at the camera (at the origin).
+        let cos_view = pose.axis(k).dot(&pose.center_mm) / pose.center_mm.norm().max(1e-9);
+        // A face seen edge-on (beyond 75°) shows only its rim and stray points.
+        if cos_view.abs() < MIN_FACE_COS {
+            continue;
+        }
+        let towards = if cos_view < 0.0 { 1.0 } else { -1.0 };
+        let plane = towards * 0.5 * pose.size_mm[k];
+        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+        let uv: Vec<(f64, f64)> = local
+            .iter()
+            .filter(|q| (q[k] - plane).abs() <= tol_mm)
+            .map(|q| (q[i], q[j]))
+            .collect();
+        if uv.len() < min_points.max(8) {
+            continue;
+        }
+        let stride = uv.len().div_ceil(600).max(1);
+        let sub: Vec<(f64, f64)> = uv.iter().step_by(stride).copied().collect();
+        out.push(FaceCorners {
+            axis: k,
+            points: uv.len(),
+            empty: empty_corners(&sub, (pose.size_mm[i], pose.size_mm[j]), min_empty),
+        });
+    }
+    out
+}
+
+/// Corners of the outline of `uv` (points of one face, mm, along the box's two axes across
+/// it) left empty. The outline is first the points' extent along the box's own axes; where
+/// that leaves at least `need` corners empty, it is the smallest-area rectangle instead
+/// (rotations in steps of 3°), so that a face the estimate turned in its plane is not read
+/// as a disc, while a face whose corners its own axes find filled costs one pass. Sides sit
+/// at the 1st and 99th percentile of the points along them, so that stray points do not
+/// stretch the outline. A corner is empty when its triangle (legs a fifth of the sides, out
+/// of reach of the inscribed ellipse even with the outline 1 % narrower) holds under a
+/// quarter of the 1/50 of the points a filled rectangle puts there. An outline whose sides
+/// fall short of 0.6 of `extents_mm` (sorted against sorted), or whose middle is not
+/// filled, is no face seen whole and counts 0.
+fn empty_corners(uv: &[(f64, f64)], extents_mm: (f64, f64), need: usize) -> usize {
+    let at_box_axes = corners_at(uv, 0.0, extents_mm);
+    if at_box_axes < need {
+        return at_box_axes;
+    }
+    let (mut xs, mut ys) = (Vec::with_capacity(uv.len()), Vec::with_capacity(uv.len()));
+    let mut best = (f64::INFINITY, 0.0);
+    for step in 0..30 {
+        let th = (step as f64 * 3.0).to_radians();
+        let (bx, by) = outline(uv, th, &mut xs, &mut ys);
+        let area = (bx.1 - bx.0) * (by.1 - by.0);
+        if area < best.0 {
+            best = (area, th);
+        }
+    }
+    corners_at(uv, best.1, extents_mm)
+}
+
+/// The 1st and 99th percentiles of `uv` along the axes turned by `th` (radians): the
+/// outline's sides. `xs`, `ys` are scratch.
+fn outline(
+    uv: &[(f64, f64)],
+    th: f64,
+    xs: &mut Vec<f64>,
+    ys: &mut Vec<f64>,
+) -> ((f64, f64), (f64, f64)) {
+    let (c, s) = (th.cos(), th.sin());
+    xs.clear();
+    ys.clear();
+    for &(u, v) in uv {
+        xs.push(c * u + s * v);
+        ys.push(-s * u + c * v);
+    }
+    let n = uv.len();
+    let (lo, hi) = (n / 100, n - 1 - n / 100);
+    let q = |v: &mut Vec<f64>| -> (f64, f64) {
+        let a = *v.select_nth_unstable_by(lo, |x, y| x.total_cmp(y)).1;
+        let b = *v.select_nth_unstable_by(hi, |x, y| x.total_cmp(y)).1;
+        (a, b)
+    };
+    (q(xs), q(ys))
+}
+
+/// Empty corners of the outline of `uv` turned by `th` ([`empty_corners`]). `uv` is not
+/// empty ([`face_corners`] asks for at least 8 points).
+fn corners_at(uv: &[(f64, f64)], th: f64, extents_mm: (f64, f64)) -> usize {
+    let (mut xs, mut ys) = (Vec::with_capacity(uv.len()), Vec::with_capacity(uv.len()));
+    let (bx, by) = outline(uv, th, &mut xs, &mut ys);
+    let (wx, wy) = (bx.1 - bx.0, by.1 - by.0);
+    let (short, long) = (wx.min(wy), wx.max(wy));
+    if short < 0.6 * extents_mm.0.min(extents_mm.1) || long < 0.6 * extents_mm.0.max(extents_mm.1) {
+        return 0;
+    }
+    let (c, s) = (th.cos(), th.sin());
+    let (mut corner, mut middle) = ([0usize; 4], [0usize; 4]);
+    for &(u, v) in uv {
+        // Normalised to [-1, 1] across the outline.
+        let x = 2.0 * ((c * u + s * v) - bx.0) / wx - 1.0;
+        let y = 2.0 * ((-s * u + c * v) - by.0) / wy - 1.0;
+        let quadrant = usize::from(x > 0.0) + 2 * usize::from(y > 0.0);
+        if x.abs() <= 1.0 && y.abs() <= 1.0 && x.abs() + y.abs() >= 1.6 {
+            corner[quadrant] += 1;
+        } else if x.abs() <= 0.5 && y.abs() <= 0.5 {
+            middle[quadrant] += 1;
+        }
+    }
+    let n = uv.len() as f64;
+    // The rim of a face that meets this plane edge-on, with stray points around it: a
+    // filled face or disc puts about 1/16 of its points in each quarter of the middle.
+    if middle.iter().any(|&m| (m as f64) < n / 32.0) {
+        return 0;
+    }
+    corner
+        .iter()
+        .filter(|&&k| (k as f64) < 0.25 * n / 50.0)
+        .count()
 }
 
 /// Least-squares circle through 2D points (Kåsa: `u² + v² + D u + E v + F = 0` solved
@@ -316,5 +478,82 @@ mod tests {
         assert!(f.is_none_or(|f| f.ratio() > 1.0), "{f:?}");
         // Too few points: no reading.
         assert!(round_cross_section(&p, &to_camera(&p, &tin[..100], 1.5), 150, 0.0).is_none());
+    }
+
+    /// Grid points (2 mm apart) of the face of `p` across axis `k` that looks at the
+    /// camera, kept where `keep(u, v)` holds (`u`, `v` along the face's two other axes, mm
+    /// from its centre).
+    fn face(p: &OrientedBox, k: usize, keep: impl Fn(f64, f64) -> bool) -> Vec<Vector3<f64>> {
+        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+        let towards = if p.axis(k).dot(&p.center_mm) < 0.0 {
+            1.0
+        } else {
+            -1.0
+        };
+        let h = p.half_size_mm();
+        let (ni, nj) = ((h[i] / 1.0) as i32, (h[j] / 1.0) as i32);
+        let mut out = Vec::new();
+        for a in -ni..ni {
+            for b in -nj..nj {
+                let (u, v) = (a as f64 + 0.5, b as f64 + 0.5);
+                if keep(u, v) {
+                    let mut q = Vector3::zeros();
+                    q[k] = towards * h[k];
+                    q[i] = u;
+                    q[j] = v;
+                    out.push(q);
+                }
+            }
+        }
+        // Every other point: 2 mm apart.
+        out.into_iter().step_by(2).collect()
+    }
+
+    #[test]
+    fn a_tins_cap_leaves_its_outlines_corners_empty_and_a_boxs_faces_fill_them() {
+        // Turned so that the camera sees all three faces at 46–57° (cosines 0.55–0.67).
+        let rot = Rotation3::from_euler_angles(0.7, 0.6, 0.3);
+        let p = OrientedBox::new(
+            rot,
+            Vector3::new(40.0, -30.0, 1000.0),
+            Vector3::new(80.0, 80.0, 120.0),
+        )
+        .unwrap(); // positive finite sizes
+        let seen = |k: usize| (p.axis(k).dot(&p.center_mm) / p.center_mm.norm()).abs();
+        // Premise: the pose shows all three faces at under 75°, so none is skipped.
+        assert!(
+            (0..3).all(|k| seen(k) > MIN_FACE_COS),
+            "{:?}",
+            [seen(0), seen(1), seen(2)]
+        );
+        let empty_of = |pts: &[Vector3<f64>], k: usize| {
+            face_corners(&p, &to_camera(&p, pts, 1.5), 100, 8.0, 3)
+                .iter()
+                .find(|f| f.axis == k)
+                .map(|f| f.empty)
+        };
+        // The cap of a tin of radius 40 mm (its box 80 × 80 mm across): no point reaches a
+        // corner triangle (legs a quarter of 80 mm: the disc stays 1.4 mm inside even with
+        // the outline 1 % narrower).
+        let cap = face(&p, 2, |u, v| u * u + v * v <= 40.0 * 40.0);
+        assert_eq!(empty_of(&cap, 2), Some(4));
+        // The box's own faces, whole: every corner filled.
+        for k in 0..3 {
+            assert_eq!(empty_of(&face(&p, k, |_, _| true), k), Some(0), "face {k}");
+        }
+        // Cut across one corner by an occluder: that corner only.
+        let cut = face(&p, 2, |u, v| u + v < 40.0);
+        assert_eq!(empty_of(&cut, 2), Some(1));
+        // Half the cap, the other half hidden: the outline no longer spans the box, so it
+        // tells nothing (a half-disc is a rectangle's two corners and a curve).
+        let half = face(&p, 2, |u, v| u <= 0.0 && u * u + v * v <= 40.0 * 40.0);
+        assert_eq!(empty_of(&half, 2), Some(0));
+        // Fewer points than asked for: no reading of the face.
+        assert_eq!(
+            face_corners(&p, &to_camera(&p, &cap, 1.5), cap.len() + 1, 8.0, 3)
+                .iter()
+                .find(|f| f.axis == 2),
+            None
+        );
     }
 }

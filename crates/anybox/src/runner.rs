@@ -548,6 +548,59 @@ mod tests {
             .fold(0.0, f64::max)
     }
 
+    /// Generated table with 32 distractors (seed 2026, the bench's frame 25): tins whose flat
+    /// cap and side the detector grouped as a box. With the cap test
+    /// (`detect.round_cap_min_points`), at least two of the records that read no carton (3D
+    /// IoU < 0.05 with every one) fall below 0.05 from above it, and the best score of every
+    /// carton's readings (3D IoU > 0.5) stays as it was.
+    #[test]
+    fn a_tins_round_cap_lowers_its_box_and_no_cartons() {
+        let sc = anybox_synth::SynthConfig {
+            layout: anybox_synth::Layout::Table,
+            scenes: u32::MAX,
+            views: 1,
+            distractors: Some(32),
+            seed: 2026,
+            noise: anybox_synth::NoiseModel::Realistic,
+            ..anybox_synth::SynthConfig::default()
+        };
+        let v = anybox_synth::generate_view(&sc, 25, 0);
+        let run = |min_points: usize| {
+            let mut config = Config::default();
+            config.detect.round_cap_min_points = min_points;
+            let out = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &config)
+                .expect("a valid frame");
+            let poses: Vec<(anybox_geom::OrientedBox, f64)> = out
+                .estimates
+                .iter()
+                .map(|r| (r.pose().unwrap(), r.score)) // estimator output: valid
+                .collect();
+            let clear = poses
+                .iter()
+                .filter(|(p, s)| *s >= 0.05 && best_iou(&v, p) < 0.05)
+                .count();
+            let per_carton: Vec<f64> = v
+                .boxes
+                .iter()
+                .map(|g| {
+                    poses
+                        .iter()
+                        .filter(|(p, _)| iou(p, &g.pose, IouMethod::Exact) > 0.5)
+                        .map(|(_, s)| *s)
+                        .fold(0.0, f64::max)
+                })
+                .collect();
+            (clear, per_carton)
+        };
+        let (clear_off, cartons_off) = run(0);
+        let (clear_on, cartons_on) = run(Config::default().detect.round_cap_min_points);
+        // Premise: the frame has such records and cartons found.
+        assert!(clear_off >= 3, "{clear_off}");
+        assert!(cartons_off.iter().filter(|s| **s > 0.0).count() >= 3);
+        assert!(clear_on + 2 <= clear_off, "{clear_off} -> {clear_on}");
+        assert_eq!(cartons_on, cartons_off);
+    }
+
     /// Generated pallet (seed 2026, scene 17, the bench's pallet frame 17): an extended
     /// reading repeats a carton that a higher-scored box already reads (3D IoU > 0.5) and,
     /// unscaled, outranks a carton that no other box reads. Scaled by
