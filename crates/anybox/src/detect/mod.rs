@@ -788,17 +788,18 @@ pub struct DetectConfig {
     /// detector's own corner test ([`DetectConfig::face_min_corners`]) sees only a group's
     /// largest face, which for a tin taller than wide is a band of its side. 0 disables.
     /// Default 100 (bench, 48 views per set, mean AP@0.5 of the 30 rows of seeds 2026 / 7 /
-    /// 11 / 3 / 5 / 13 against 0: 0.7436 → 0.7440, 32 distractors 0.7538 → 0.7552, up by
-    /// 0.001–0.002 on every seed, no row down; on seed 2026's 32-distractor frames the
-    /// records reading no carton that score ≥ 0.1 fall from 47 to 33, no true positive
-    /// lowered).
+    /// 11 / 3 / 5 / 13 against 0: 0.7436 → 0.7440, 32 distractors 0.7538 → 0.7555, up by
+    /// 0.001–0.003 on every seed, no row down by more than 0.001; on seed 2026's
+    /// 32-distractor frames the records reading no carton that score ≥ 0.1 fall from 47 to
+    /// 32, no true positive lowered).
     pub round_cap_min_points: usize,
     /// How far from the face's plane a point counts as on it, mm. Default 8 (a few times
     /// the depth noise at 1–2 m; a cap's rim, the side's points within 8 mm of it, lies on
     /// the disc's edge and leaves the corners empty).
     pub round_cap_tol_mm: f64,
-    /// Empty corners (of 4) that make a face a cap. Default 4 (same bench, 3: 32
-    /// distractors 0.7563, but tables without distractors 0.7903 → 0.7895, mean 0.7438).
+    /// Empty corners (of 4) that make a face a cap. Default 4 (same bench, on the test's
+    /// first version, 3: 32 distractors 0.7563, but tables without distractors 0.7903 →
+    /// 0.7895, mean 0.7438).
     pub round_cap_min_empty: usize,
     /// Score factor of a detection read as round ([`DetectConfig::round_max_ratio`]).
     /// Default 0.3 (kept, not dropped: a carton misread as round stays in the ranking).
