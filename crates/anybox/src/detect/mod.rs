@@ -798,8 +798,8 @@ pub struct DetectConfig {
     /// the disc's edge and leaves the corners empty).
     pub round_cap_tol_mm: f64,
     /// Empty corners (of 4) that make a face a cap. Default 4 (same bench, on the test's
-    /// first version, 3: 32 distractors 0.7563, but tables without distractors 0.7903 →
-    /// 0.7895, mean 0.7438).
+    /// first version, which always turned the outline, 3: 32 distractors 0.7563, but
+    /// tables without distractors 0.7903 → 0.7895, mean 0.7438).
     pub round_cap_min_empty: usize,
     /// Score factor of a detection read as round ([`DetectConfig::round_max_ratio`]).
     /// Default 0.3 (kept, not dropped: a carton misread as round stays in the ranking).
