@@ -172,16 +172,17 @@ pub struct FaceCorners {
 
 /// The faces of `pose` that look towards the camera (at under 75° to the line of sight),
 /// each with at least `min_points` points within `tol_mm` of its plane, and how many
-/// corners of its outline they leave empty ([`FaceCorners`]; where its own axes leave fewer
-/// than `min_empty`, that count, else the count for the smallest outline at any turn in the
-/// plane). A cuboid's face fills its outline's corners; the flat cap of a tin or a rod,
-/// whose side the detector grouped with it as a box, is a disc (or an ellipse, where the
-/// estimate's axis is off the tin's) and leaves all four empty: the corner triangles tested
-/// (legs a fifth of the outline's sides) lie outside the inscribed ellipse. The outline is
-/// the points' 1st to 99th percentile along each side, at most about 600 points (a hash of
-/// their index picks them) taken; it must span 0.6 of the box's extents across the axis and have points all over
-/// its middle, else the face counts 0 (a face cut in half by an occluder, or the rim of
-/// one seen edge-on, tells a disc from a rectangle no better than chance).
+/// corners of its outline they leave empty ([`FaceCorners`]; the outline runs along the
+/// box's axes, or, where those leave at least `min_empty` corners empty, along the turn in
+/// the plane that shrinks it by 5 % or more, if any). A cuboid's face fills its outline's
+/// corners; the flat cap of a tin or a rod, whose side the detector grouped with it as a
+/// box, is a disc (or an ellipse, where the estimate's axis is off the tin's) and leaves all
+/// four empty: the corner triangles tested (legs a fifth of the outline's sides) lie
+/// outside the inscribed ellipse. The outline is the 1st to 99th percentile, along each
+/// side, of about 600 of the points (a hash of their index picks them); it must span 0.6 of
+/// the box's extents across the axis and have points all over its middle, else the face
+/// counts 0 (a face cut in half by an occluder, or the rim of one seen edge-on, tells a
+/// disc from a rectangle no better than chance).
 pub fn face_corners(
     pose: &OrientedBox,
     points_mm: &[Point3<f64>],
@@ -241,9 +242,10 @@ fn mix(n: u64) -> u64 {
 
 /// Corners of the outline of `uv` (points of one face, mm, along the box's two axes across
 /// it) left empty. The outline is first the points' extent along the box's own axes; where
-/// that leaves at least `need` corners empty, it is the smallest-area rectangle instead
-/// (rotations in steps of 3°) where that is at least 5 % smaller, so that a face the estimate turned in its plane is not read
-/// as a disc, while a face whose corners its own axes find filled costs one pass. Sides sit
+/// that leaves at least `need` corners empty, it runs along the turn (in steps of 3°) of
+/// the smallest full extent instead, where that is at least 5 % smaller, so that a face
+/// the estimate turned in its plane is not read as a disc, while a face whose corners its
+/// own axes find filled costs one pass. Sides sit
 /// at the 1st and 99th percentile of the points along them, so that stray points do not
 /// stretch the outline. A corner is empty when its triangle (legs a fifth of the sides, out
 /// of reach of the inscribed ellipse even with the outline 1 % narrower) holds under a
@@ -278,8 +280,8 @@ fn empty_corners(uv: &[(f64, f64)], extents_mm: (f64, f64), need: usize) -> usiz
         }
     }
     // A rectangle turned by 3° in its plane already has an outline 10 % larger along the
-    // box's axes than along its own; a disc's or an ellipse's changes by a few percent
-    // with the points' percentiles.
+    // box's axes than along its own; a disc's is the same at every turn, and an ellipse
+    // inscribed in the box's outline is smallest along the box's axes.
     if best.0 < 0.95 * at_axes {
         corners_at(uv, best.1, extents_mm)
     } else {
@@ -518,9 +520,9 @@ mod tests {
         assert!(round_cross_section(&p, &to_camera(&p, &tin[..100], 1.5), 150, 0.0).is_none());
     }
 
-    /// Grid points (2 mm apart) of the face of `p` across axis `k` that looks at the
-    /// camera, kept where `keep(u, v)` holds (`u`, `v` along the face's two other axes, mm
-    /// from its centre).
+    /// Points of the face of `p` across axis `k` that looks at the camera (every other
+    /// point of a 1 mm grid), kept where `keep(u, v)` holds (`u`, `v` along the face's two
+    /// other axes, mm from its centre).
     fn face(p: &OrientedBox, k: usize, keep: impl Fn(f64, f64) -> bool) -> Vec<Vector3<f64>> {
         let (i, j) = ((k + 1) % 3, (k + 2) % 3);
         let towards = if p.axis(k).dot(&p.center_mm) < 0.0 {
@@ -529,7 +531,7 @@ mod tests {
             -1.0
         };
         let h = p.half_size_mm();
-        let (ni, nj) = ((h[i] / 1.0) as i32, (h[j] / 1.0) as i32);
+        let (ni, nj) = (h[i] as i32, h[j] as i32);
         let mut out = Vec::new();
         for a in -ni..ni {
             for b in -nj..nj {
@@ -543,7 +545,7 @@ mod tests {
                 }
             }
         }
-        // Every other point: 2 mm apart.
+        // Every other point, in row-major order as a mask's pixels come.
         out.into_iter().step_by(2).collect()
     }
 
@@ -608,7 +610,8 @@ mod tests {
             (x, y, z) in (-300.0f64..300.0, -300.0f64..300.0, 700.0f64..2500.0),
         ) {
             let rot = Rotation3::from_euler_angles(angles[0], angles[1], angles[2]);
-            let p = OrientedBox::new(rot, Vector3::new(x, y, z), Vector3::from(size)).unwrap(); // sizes ≥ 60 mm
+            // Sizes of at least 60 mm: a valid box.
+            let p = OrientedBox::new(rot, Vector3::new(x, y, z), Vector3::from(size)).unwrap();
             let h = p.half_size_mm();
             for k in 0..3 {
                 let (i, j) = ((k + 1) % 3, (k + 2) % 3);
