@@ -555,21 +555,10 @@ mod tests {
     /// carton's readings (3D IoU > 0.5) stays as it was.
     #[test]
     fn a_tins_round_cap_lowers_its_box_and_no_cartons() {
-        let sc = anybox_synth::SynthConfig {
-            layout: anybox_synth::Layout::Table,
-            scenes: u32::MAX,
-            views: 1,
-            distractors: Some(32),
-            seed: 2026,
-            noise: anybox_synth::NoiseModel::Realistic,
-            ..anybox_synth::SynthConfig::default()
-        };
-        let v = anybox_synth::generate_view(&sc, 25, 0);
-        let run = |min_points: usize| {
-            let mut config = Config::default();
-            config.detect.round_cap_min_points = min_points;
-            let out = run_detected_frame(Some(&v.rgb), &v.depth, &v.intrinsics, &config)
-                .expect("a valid frame");
+        let v = generated_view(anybox_synth::Layout::Table, 32, 25);
+        let (with, without) = with_and_without(&v, |c| c.detect.round_cap_min_points = 0);
+        // Records reading no carton at >= 0.05, and each carton's best reading's score.
+        let summary = |out: &RunOutput| {
             let poses: Vec<(anybox_geom::OrientedBox, f64)> = out
                 .estimates
                 .iter()
@@ -592,8 +581,8 @@ mod tests {
                 .collect();
             (clear, per_carton)
         };
-        let (clear_off, cartons_off) = run(0);
-        let (clear_on, cartons_on) = run(Config::default().detect.round_cap_min_points);
+        let ((clear_on, cartons_on), (clear_off, cartons_off)) =
+            (summary(&with), summary(&without));
         // Premise: the frame has such records and cartons found.
         assert!(clear_off >= 3, "{clear_off}");
         assert!(cartons_off.iter().filter(|s| **s > 0.0).count() >= 3);
