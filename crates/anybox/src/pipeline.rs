@@ -1034,10 +1034,11 @@ pub fn round_factor(
         return 1.0;
     }
     let (_, points) = crate::observation::mask_points(depth, intrinsics, mask);
+    let local = crate::roundness::to_local_all(&est.pose, &points);
     if d.round_cap_min_points > 0
-        && crate::roundness::face_corners(
+        && crate::roundness::face_corners_local(
             &est.pose,
-            &points,
+            &local,
             d.round_cap_min_points,
             d.round_cap_tol_mm,
             d.round_cap_min_empty,
@@ -1047,9 +1048,9 @@ pub fn round_factor(
     {
         return d.round_score_factor;
     }
-    let Some(c) = crate::roundness::round_cross_section(
+    let Some(c) = crate::roundness::round_cross_section_local(
         &est.pose,
-        &points,
+        &local,
         d.round_min_points,
         d.round_min_share,
     ) else {

@@ -64,7 +64,22 @@ pub fn round_cross_section(
     min_points: usize,
     min_share: f64,
 ) -> Option<CrossSection> {
-    let local: Vec<Vector3<f64>> = points_mm.iter().map(|p| pose.to_local(p)).collect();
+    round_cross_section_local(pose, &to_local_all(pose, points_mm), min_points, min_share)
+}
+
+/// `points_mm` in `pose`'s frame (mm): what [`round_cross_section_local`] and
+/// [`face_corners_local`] take, so that a caller running both moves the points once.
+pub(crate) fn to_local_all(pose: &OrientedBox, points_mm: &[Point3<f64>]) -> Vec<Vector3<f64>> {
+    points_mm.iter().map(|p| pose.to_local(p)).collect()
+}
+
+/// [`round_cross_section`] of points already in `pose`'s frame ([`to_local_all`]).
+pub(crate) fn round_cross_section_local(
+    pose: &OrientedBox,
+    local: &[Vector3<f64>],
+    min_points: usize,
+    min_share: f64,
+) -> Option<CrossSection> {
     let s = pose.size_mm;
     let mut best: Option<CrossSection> = None;
     for k in 0..3 {
@@ -190,7 +205,18 @@ pub fn face_corners(
     tol_mm: f64,
     min_empty: usize,
 ) -> Vec<FaceCorners> {
-    let local: Vec<Vector3<f64>> = points_mm.iter().map(|p| pose.to_local(p)).collect();
+    let local = to_local_all(pose, points_mm);
+    face_corners_local(pose, &local, min_points, tol_mm, min_empty)
+}
+
+/// [`face_corners`] of points already in `pose`'s frame ([`to_local_all`]).
+pub(crate) fn face_corners_local(
+    pose: &OrientedBox,
+    local: &[Vector3<f64>],
+    min_points: usize,
+    tol_mm: f64,
+    min_empty: usize,
+) -> Vec<FaceCorners> {
     let mut out = Vec::new();
     for k in 0..3 {
         // The face across k whose outward normal points at the camera (at the origin).
