@@ -297,6 +297,29 @@ pub struct DetectConfig {
     /// seed; 1500 gave 0.6813 but shelves −0.011 on seeds 7 and 13; a flat 14° limit at every
     /// depth lost 0.013 on the tables with 32 distractors, letting round ones in).
     pub bend_ref_depth_mm: f64,
+    /// A half of a region (for the bend test of `max_bend_deg`) is a strip when its
+    /// in-plane spread across is under this fraction of its spread along (second eigenvalue
+    /// of its points' covariance over the largest): a strip's plane may turn about its length
+    /// at random, so in a region of at least `bend_strip_min_cells` the split giving it is
+    /// left out. 0 disables. Default 0.05 (a strip about 4.5 times longer than wide; see
+    /// `bend_strip_min_cells` for the measurement).
+    pub bend_strip_max_ratio: f64,
+    /// Regions of at least this many cells leave splits with a strip for a half out of their
+    /// bend (`bend_strip_max_ratio`); smaller ones keep them. Why: on a pallet of flush
+    /// cartons with tape across their tops, the top of the front row and its tape band are one
+    /// colour patch, half of it a strip, whose halves' planes part by 17–20°: no face, so the
+    /// tops were lost (seed 7, pallet view 47: 5 of 6 cartons). A small region with a strip
+    /// for a half is mostly a tape band or an edge seen at a grazing angle, and better no face.
+    /// A region over about 9 times longer than wide has strips for halves both ways and no
+    /// bend: a long, gently curved strip is left to `max_normal_spread_deg`. Default 800
+    /// (bench, 48 views per set, seeds 2026 / 7 / 11 / 3 / 5 / 13, mean AP@0.5 of the 30 rows
+    /// against the test without strips left out: 0.7440 → 0.7464; pallets 0.7948 → 0.8035,
+    /// tables +0.0003 / +0.0007 / +0.0005 with 0 / 8 / 32 distractors, shelves 0.6037 →
+    /// 0.6053, no row down by more than 0.004; AP@0.25 0.8735 → 0.8770. An offline replay
+    /// of the same frames gave, with 400, pallets +0.016 but each table set −0.001, and with
+    /// no size limit pallets +0.020 but tables −0.005 to −0.009: tape bands became faces and
+    /// cut cartons in two).
+    pub bend_strip_min_cells: u32,
     /// A lone face touching a curved surface (bent beyond `max_bend_deg`) is part of a round
     /// thing (a cylinder's cap) and dropped, but only when that surface has at least this
     /// fraction of the face's cells: the thin strip of a box's side face seen at a grazing angle
@@ -1375,6 +1398,8 @@ impl Default for DetectConfig {
             max_normal_spread_deg: 25.0,
             max_bend_deg: 10.0,
             bend_ref_depth_mm: 2000.0,
+            bend_strip_max_ratio: 0.05,
+            bend_strip_min_cells: 800,
             curved_veto_min_ratio: 0.25,
             curved_veto_min_bend_deg: 15.0,
             support_min_area_mm2: 250_000.0,

@@ -32,7 +32,9 @@ pub(crate) struct Region {
     pub normal_spread_deg: f64,
     /// Bend: the largest angle between the plane normals of the region's two halves, split
     /// across either in-plane principal axis, degrees (a sphere or cylinder patch bends, a
-    /// plane does not; fitted on many cells, it is robust to per-cell noise).
+    /// plane does not; fitted on many cells, it is robust to per-cell noise). In a region of
+    /// at least `bend_strip_min_cells`, a split with a strip for a half
+    /// (`bend_strip_max_ratio`) is left out; 0 when both are.
     pub bend_deg: f64,
     /// Mean colour.
     pub colour: [f64; 3],
@@ -499,6 +501,17 @@ pub(crate) fn fit_regions(g: &Grid, labels: &[u32], n: usize, cfg: &DetectConfig
                 let (_, cov) = half.mean_cov();
                 let eig = SymmetricEigen::new(cov);
                 ns[side] = eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
+                // A strip's plane is not determined across it: its normal may turn about
+                // the strip's length at random. Such a half of a large region (a carton's
+                // top with a tape band along it) says nothing of a bend.
+                let mut ev = [eig.eigenvalues[0], eig.eigenvalues[1], eig.eigenvalues[2]];
+                ev.sort_by(f64::total_cmp);
+                if mom[l].n >= cfg.bend_strip_min_cells as usize
+                    && ev[1] < cfg.bend_strip_max_ratio * ev[2]
+                {
+                    ok = false;
+                    break;
+                }
             }
             if ok {
                 let cos = ns[0].dot(&ns[1]).abs().min(1.0);
@@ -854,6 +867,80 @@ mod tests {
         let mut strip = vec![false; W * H];
         let n = bridge_tape(&g, &mut labels, &regions, &mut strip, cfg);
         (n, strip.iter().any(|&s| s))
+    }
+
+    /// One region, label 0: a flat patch `cols × rows` cells facing the camera 1 m away
+    /// (3.3 mm per cell), whose last row lies `edge_mm` farther, as the mixed depths along a
+    /// face's edge do; `curve_mm`: each column sags by `curve_mm` times the square of its
+    /// offset from the middle column over the half width (a cylinder whose axis runs along the
+    /// columns).
+    fn long_patch(cols: usize, rows: usize, edge_mm: f64, curve_mm: f64) -> (Grid, Vec<u32>) {
+        let k = Intrinsics {
+            fx: 300.0,
+            fy: 300.0,
+            cx: cols as f64 / 2.0,
+            cy: rows as f64 / 2.0,
+        };
+        let pitch_mm = 1000.0 / k.fx;
+        let mid = (cols as f64 - 1.0) / 2.0;
+        let mut p = Vec::new();
+        for v in 0..rows {
+            for u in 0..cols {
+                let r = (u as f64 - mid) / mid;
+                let z = 1000.0 + curve_mm * r * r + if v + 1 == rows { edge_mm } else { 0.0 };
+                let x = (u as f64 - k.cx) * pitch_mm;
+                let y = (v as f64 - k.cy) * pitch_mm;
+                p.push([x as f32, y as f32, z as f32]);
+            }
+        }
+        let n = cols * rows;
+        let g = Grid {
+            w: cols,
+            h: rows,
+            step: 2,
+            k,
+            z: p.iter().map(|q| q[2]).collect(),
+            n: vec![[0.0, 0.0, -1.0]; n],
+            p,
+            c: vec![BROWN; n],
+            seam: vec![false; n],
+            grow_from_mm: 0.0,
+        };
+        (g, vec![0; n])
+    }
+
+    #[test]
+    fn a_long_faces_edge_does_not_bend_it_and_a_cylinder_still_bends() {
+        let cfg = DetectConfig::default();
+        let off = DetectConfig {
+            bend_strip_max_ratio: 0.0,
+            ..DetectConfig::default()
+        };
+        let bend = |g: &Grid, l: &[u32], c: &DetectConfig| fit_regions(g, l, 1, c)[0].bend_deg;
+        // 150 × 8 cells (500 × 27 mm; a strip about 19 times longer than wide), its last row
+        // 5 mm deep: split lengthwise, the half holding that row is a strip 4 cells wide
+        // whose plane turns by atan(5 mm over about 10 mm) about its length.
+        let (g, l) = long_patch(150, 8, 5.0, 0.0);
+        assert!(l.len() >= cfg.bend_strip_min_cells as usize);
+        let before = bend(&g, &l, &off);
+        assert!(
+            before > cfg.max_bend_deg,
+            "premise: the old test bends it, {before}"
+        );
+        let now = bend(&g, &l, &cfg);
+        assert!(now <= 1.0, "{now}");
+        // Under `bend_strip_min_cells` (here 60 × 8) nothing changes.
+        let (g, l) = long_patch(60, 8, 5.0, 0.0);
+        assert!(l.len() < cfg.bend_strip_min_cells as usize);
+        assert_eq!(bend(&g, &l, &cfg), bend(&g, &l, &off));
+        assert!(bend(&g, &l, &cfg) > cfg.max_bend_deg);
+        // A patch of a cylinder bending along its length (60 × 20 cells, its ends 12 mm
+        // deeper than its middle): the split across it gives no strip and shows the bend.
+        let (g, l) = long_patch(60, 20, 0.0, 12.0);
+        assert!(l.len() >= cfg.bend_strip_min_cells as usize);
+        let b = bend(&g, &l, &cfg);
+        assert!(b > cfg.max_bend_deg, "{b}");
+        assert_eq!(b, bend(&g, &l, &off));
     }
 
     #[test]
