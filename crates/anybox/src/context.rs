@@ -203,6 +203,22 @@ pub struct ContextConfig {
     /// With `min_plane_spread_mm` 10, so that more cartons find the deck: 0.7124 (tables
     /// lose 0.001–0.002).
     pub layer_nearer_support: bool,
+    /// A mask the built-in detector found with one face whose estimate nonetheless saw all
+    /// three extents, the one along the line of sight the longest, gives its extents to no
+    /// neighbour (it still takes theirs). One face seen, three extents seen: the mask ran onto
+    /// faces of other boxes, and its depth is theirs too. Seed 5's 48-view pallet view 7:
+    /// two tops whose masks ran down the fronts of the layer below read 600 and 611 mm tall,
+    /// and the layer's median gave 600 to five tops of 280 mm cartons (3D IoU 0.41–0.45).
+    /// Only along the line of sight: a flat box's top whose mask took in a sliver of its
+    /// side sees a true height, and its neighbours need it (seed 2026, table view 47: without
+    /// that condition a 46 mm tall neighbour read 112). Masks from elsewhere carry no face
+    /// count and are not concerned. Default true (bench, 48 views per set, seeds 2026 / 7 /
+    /// 11 / 3 / 5 / 13, mean AP@0.5 of the 30 rows, with `detect.bend_strip_min_cells`:
+    /// 0.7464 → 0.7474; pallets 0.8035 → 0.8073, shelves 0.6053 → 0.6072, tables −0.0002 /
+    /// −0.0004 / −0.0002, all of it seed 13's table view 29, where a 64 mm extent came from
+    /// such a mask; without the line-of-sight condition, in an offline replay, tables lost
+    /// 0.0015 each).
+    pub layer_skip_deep_one_face: bool,
     /// ... only along an axis within `layer_max_tilt_deg` of down (see `up_hint`), degrees.
     /// Default 80: a camera pitched down by φ sees a top's hidden axis at φ from the image's
     /// down and a front face's at 90° + φ, a side face's at 90°. 70 gave the same 48-view
@@ -258,6 +274,7 @@ impl Default for ContextConfig {
             layer_tol_mm: 20.0,
             layer_before_support: true,
             layer_nearer_support: true,
+            layer_skip_deep_one_face: true,
             layer_max_tilt_deg: 80.0,
             up_hint: [0.0, -1.0, 0.0],
             score_doubt: true,
@@ -692,7 +709,8 @@ pub struct LayerMember {
     pub score: f64,
     /// Whether its extents are offered to the others: false for an alternative reading of
     /// boxes that other members already stand for, which takes from its neighbours but must
-    /// not change their estimates.
+    /// not change their estimates, and for a mask run onto other boxes
+    /// ([`ContextConfig::layer_skip_deep_one_face`]).
     pub shares: bool,
 }
 

@@ -336,6 +336,9 @@ pub struct MaskRole {
     pub alternative: bool,
     /// May get the second try on a low score (`observation.retry_below_score`).
     pub retry: bool,
+    /// The built-in detector saw one face of it (`faces` 1; see
+    /// [`ContextConfig::layer_skip_deep_one_face`](crate::context::ContextConfig::layer_skip_deep_one_face)).
+    pub one_face: bool,
 }
 
 impl MaskRole {
@@ -344,6 +347,7 @@ impl MaskRole {
         Self {
             alternative,
             retry: !alternative,
+            one_face: false,
         }
     }
 }
@@ -361,6 +365,7 @@ pub fn detected_mask_roles(
             alternative: m.alternative,
             retry: !m.alternative
                 && (m.faces.is_none() || m.score >= cfg.estimate_retry_min_detection_score),
+            one_face: m.faces == Some(1),
         })
         .collect()
 }
@@ -397,11 +402,19 @@ pub fn estimate_frame_with_roles<M: AsRef<Mask> + Sync>(
         let members: Vec<LayerMember> = idx
             .iter()
             .filter_map(|&i| Some((i, stages[i].as_ref().ok()?)))
-            .map(|(i, s)| LayerMember {
-                pose: s.pose,
-                sources: s.sources,
-                score: s.score,
-                shares: !role(i).alternative,
+            .map(|(i, s)| {
+                // One face found, three extents seen, deepest along the line of sight: the
+                // mask ran onto other boxes.
+                let ran_onto_others = cfg.context.layer_skip_deep_one_face
+                    && role(i).one_face
+                    && s.sources.iter().all(|x| *x == HiddenSource::Observed)
+                    && deepest_along_sight(&s.pose);
+                LayerMember {
+                    pose: s.pose,
+                    sources: s.sources,
+                    score: s.score,
+                    shares: !(role(i).alternative || ran_onto_others),
+                }
             })
             .collect();
         let updates = share_layer_heights(&members, &cfg.context);
@@ -455,6 +468,20 @@ pub fn estimate_frame_with_roles<M: AsRef<Mask> + Sync>(
         }
     }
     stages.into_iter().map(|r| r.map(|s| finish(&s))).collect()
+}
+
+/// Whether the box's extent along its axis nearest the line of sight (camera to centre) is
+/// longer than both others: deeper than the face it shows is wide or tall.
+fn deepest_along_sight(p: &OrientedBox) -> bool {
+    let Some(ray) = p.center_mm.try_normalize(1e-9) else {
+        return false;
+    };
+    let along = |a: usize| p.axis(a).dot(&ray).abs();
+    let a = (0..3)
+        .max_by(|&x, &y| along(x).total_cmp(&along(y)))
+        .unwrap_or(0);
+    let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+    p.size_mm[a] > p.size_mm[b].max(p.size_mm[c])
 }
 
 /// Ray-cast test scenes: boxes and planes, depth (exact or with Gaussian noise) and visible
@@ -1429,6 +1456,30 @@ mod tests {
     use super::*;
     use crate::repeat::tests::carton_row;
     use nalgebra::Rotation3;
+
+    #[test]
+    fn depth_along_the_line_of_sight_is_read_on_the_axis_nearest_it() {
+        let b = |rot: Rotation3<f64>, size: [f64; 3]| OrientedBox {
+            rotation: rot,
+            center_mm: Vector3::new(100.0, -50.0, 1500.0),
+            size_mm: Vector3::from(size),
+        };
+        let id = Rotation3::identity();
+        // The camera looks along z: z is the depth.
+        assert!(deepest_along_sight(&b(id, [300.0, 200.0, 600.0])));
+        assert!(!deepest_along_sight(&b(id, [300.0, 200.0, 250.0])));
+        assert!(!deepest_along_sight(&b(id, [600.0, 200.0, 300.0])));
+        // Turned a quarter about y, the box's x axis lies along the line of sight.
+        let q = Rotation3::from_axis_angle(&Vector3::y_axis(), std::f64::consts::FRAC_PI_2);
+        assert!(deepest_along_sight(&b(q, [600.0, 200.0, 300.0])));
+        assert!(!deepest_along_sight(&b(q, [300.0, 200.0, 600.0])));
+        // No line of sight from the camera's own centre.
+        let at_origin = OrientedBox {
+            center_mm: Vector3::zeros(),
+            ..b(id, [1.0, 1.0, 9.0])
+        };
+        assert!(!deepest_along_sight(&at_origin));
+    }
 
     /// A generated pallet (seed 5, scene 18 of 48, as `SEED=5 ONLY=pallet VIEW=18 EST3D=1
     /// detect_dev 48` draws it): two 504 × 336 × 190 mm cartons on a layer of others, their
