@@ -470,16 +470,23 @@ pub fn estimate_frame_with_roles<M: AsRef<Mask> + Sync>(
     stages.into_iter().map(|r| r.map(|s| finish(&s))).collect()
 }
 
-/// Whether the box's extent along its axis nearest the line of sight (camera to centre) is
-/// longer than both others: deeper than the face it shows is wide or tall.
+/// The axis of `pose` nearest the line of sight (the camera, at the origin, to the box's
+/// centre; the axis of the face towards the camera) and that line's unit direction; `None`
+/// for a box centred on the camera.
+fn axis_nearest_sight(pose: &OrientedBox) -> Option<(usize, Vector3<f64>)> {
+    let ray = pose.center_mm.try_normalize(1e-9)?;
+    let along = |a: usize| pose.axis(a).dot(&ray).abs();
+    let a = (0..3).max_by(|&x, &y| along(x).total_cmp(&along(y)))?;
+    Some((a, ray))
+}
+
+/// Whether the box's extent along its axis nearest the line of sight
+/// ([`axis_nearest_sight`]) is longer than both others: deeper than the face it shows is
+/// wide or tall.
 fn deepest_along_sight(p: &OrientedBox) -> bool {
-    let Some(ray) = p.center_mm.try_normalize(1e-9) else {
+    let Some((a, _)) = axis_nearest_sight(p) else {
         return false;
     };
-    let along = |a: usize| p.axis(a).dot(&ray).abs();
-    let a = (0..3)
-        .max_by(|&x, &y| along(x).total_cmp(&along(y)))
-        .unwrap_or(0);
     let (b, c) = ((a + 1) % 3, (a + 2) % 3);
     p.size_mm[a] > p.size_mm[b].max(p.size_mm[c])
 }
@@ -1302,14 +1309,11 @@ pub fn lattice_readings(
         if counts[source] < cfg.lattice_min_copies {
             continue;
         }
-        // The face towards the camera: the axis nearest the viewing ray.
-        let Some(view) = pose.center_mm.try_normalize(1e-9) else {
+        // The face towards the camera.
+        let Some((a, view)) = axis_nearest_sight(&pose) else {
             continue;
         };
         let facing = |x: usize| pose.axis(x).dot(&view).abs();
-        let a = (0..3)
-            .max_by(|&x, &y| facing(x).total_cmp(&facing(y)))
-            .unwrap_or(2);
         // A move along that face's normal (the next carton of a stack) is read on the face
         // seen next best, where the camera sees it well enough.
         let side = (0..3)
