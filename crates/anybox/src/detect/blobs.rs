@@ -48,10 +48,20 @@ fn dominant(
     cands: &[usize],
     cos_tol: f64,
 ) -> Option<(Vector3<f64>, usize)> {
+    // Coordinates apart, so that the counts below run several normals at a time (the same
+    // products and sums as `Vector3::dot`, in its order).
+    let xs: Vec<f64> = normals.iter().map(|m| m.x).collect();
+    let ys: Vec<f64> = normals.iter().map(|m| m.y).collect();
+    let zs: Vec<f64> = normals.iter().map(|m| m.z).collect();
     let mut best: Option<(usize, usize)> = None;
     for &c in cands {
         let d = normals[c];
-        let n = normals.iter().filter(|m| m.dot(&d) >= cos_tol).count();
+        let n = xs
+            .iter()
+            .zip(&ys)
+            .zip(&zs)
+            .filter(|((x, y), z)| *x * d.x + *y * d.y + *z * d.z >= cos_tol)
+            .count();
         if best.is_none_or(|b| n > b.1) {
             best = Some((c, n));
         }
@@ -590,31 +600,53 @@ fn find_colour_cut(
         let spread = (dev[RUNS / 2 - 1] + dev[RUNS / 2]) / 2.0 / out.norm().max(1.0);
         (out, spread)
     };
+    // The face of each of the object's cells (`u8::MAX`: none, or a face too small to count).
+    // Faces are subsequences of the object's (ascending) cells, so a merge finds them.
+    let big: Vec<&Vec<u32>> = fr
+        .faces
+        .iter()
+        .filter(|f| f.len() >= 2 * MIN_SIDE)
+        .collect();
+    debug_assert!(blob.windows(2).all(|w| w[0] < w[1]), "object cells ascend");
+    let mut face_of = vec![u8::MAX; blob.len()];
+    for (f, cells) in big.iter().enumerate() {
+        let mut k = 0;
+        for c in cells.iter() {
+            while k < blob.len() && blob[k] < *c {
+                k += 1;
+            }
+            if k < blob.len() && blob[k] == *c {
+                face_of[k] = f as u8;
+            }
+        }
+    }
     let mut best: Option<(f64, Vector3<f64>, f64)> = None;
     for e in &fr.full {
-        let mut all: Vec<f64> = blob.iter().map(|&i| v3(&g.p[i as usize]).dot(e)).collect();
-        all.sort_unstable_by(f64::total_cmp);
-        // Each face's cells along e (faces of other orientations shade differently): their
-        // positions and colour prefix sums.
-        let faces: Vec<(Vec<f64>, Vec<Vector3<f64>>)> = fr
-            .faces
+        // One sort of the object's cells along e, ties by cell: each face's cells in that
+        // order are its own sort (faces of other orientations shade differently, so each
+        // gets its positions and colour prefix sums).
+        let mut t: Vec<(f64, u32, u8)> = blob
             .iter()
-            .filter(|f| f.len() >= 2 * MIN_SIDE)
+            .zip(&face_of)
+            .map(|(&i, &f)| (v3(&g.p[i as usize]).dot(e), i, f))
+            .collect();
+        t.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let all: Vec<f64> = t.iter().map(|c| c.0).collect();
+        let mut faces: Vec<(Vec<f64>, Vec<Vector3<f64>>)> = big
+            .iter()
             .map(|f| {
-                let mut t: Vec<(f64, u32)> = f
-                    .iter()
-                    .map(|&i| (v3(&g.p[i as usize]).dot(e), i))
-                    .collect();
-                // Ascending cells: ties by cell keep a stable sort's order.
-                t.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-                let mut sum = Vec::with_capacity(t.len() + 1);
+                let mut sum = Vec::with_capacity(f.len() + 1);
                 sum.push(Vector3::zeros());
-                for (k, c) in t.iter().enumerate() {
-                    sum.push(sum[k] + v3(&g.c[c.1 as usize]));
-                }
-                (t.into_iter().map(|c| c.0).collect(), sum)
+                (Vec::with_capacity(f.len()), sum)
             })
             .collect();
+        for &(x, i, f) in &t {
+            if let Some((pos, sum)) = faces.get_mut(f as usize) {
+                pos.push(x);
+                let last = sum[sum.len() - 1];
+                sum.push(last + v3(&g.c[i as usize]));
+            }
+        }
         let steps = 20;
         for q in 0..=steps {
             let q = frac + (1.0 - 2.0 * frac) * q as f64 / steps as f64;

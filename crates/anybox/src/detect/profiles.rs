@@ -410,14 +410,20 @@ impl Binned {
 
     /// Adds a pixel `p` ([a, b] on the plane (mm), R, G, B) to its bin, if it has one.
     fn add(&mut self, p: &[f64; 5]) {
-        let j = ((dot(p, self.across) - self.s0) / self.bw).floor();
-        if j < 0.0 || j >= self.nb as f64 {
+        // Truncation is the floor of a value ≥ 0, without a call to `floor` (x86-64's
+        // baseline has no rounding instruction); NaN lands in bin 0 and segment 0, as a
+        // NaN floor cast to an integer did.
+        let x = (dot(p, self.across) - self.s0) / self.bw;
+        if x < 0.0 || x >= self.nb as f64 {
             return;
         }
-        let k = ((dot(p, self.along) - self.q0) / self.qseg)
-            .floor()
-            .clamp(0.0, (SEGMENTS - 1) as f64);
-        let i = k as usize * self.nb + j as usize;
+        let y = (dot(p, self.along) - self.q0) / self.qseg;
+        let k = if y >= 0.0 {
+            (y as usize).min(SEGMENTS - 1)
+        } else {
+            0
+        };
+        let i = k * self.nb + x as usize;
         self.lum[i] += (p[2] + p[3] + p[4]) / 3.0;
         self.cnt[i] += 1;
         for c in 0..3 {
