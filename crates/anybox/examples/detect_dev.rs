@@ -3,6 +3,8 @@
 //!
 //! `cargo run --release -p anybox --example detect_dev -- [views-per-config] [dump-dir]`
 //! Env: `SEED=<u64>` (default 7), `ONLY=<layout>`, `NOISE=none`, `DETECT_CFG=<json>`, `LABELS=1`,
+//! `BENCH_VIEWS=1` (the views of `anybox bench --seed <SEED>`'s detection sets, view `i` being
+//! the bench's view `i`; without it the views differ from the bench's),
 //! `EST=1`, `VERBOSE=1` (with `LEVEL=0|1|2`: which labels a missed box's cover and purity
 //! come from: surfaces, colour patches, objects; default objects), `VIEW=<index>` (one view
 //! only), `KIND=1` (per detection: exact, part of one box, bleeding into others, mixed or junk,
@@ -460,7 +462,13 @@ fn main() {
         }
         let sc = SynthConfig {
             layout,
-            scenes: n_views,
+            // `BENCH_VIEWS=1`: the views of `anybox bench`'s detection sets (its generator
+            // draws every view from an unbounded scene count).
+            scenes: if std::env::var("BENCH_VIEWS").is_ok() {
+                u32::MAX
+            } else {
+                n_views
+            },
             views: 1,
             distractors,
             seed: std::env::var("SEED")
