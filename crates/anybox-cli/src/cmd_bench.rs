@@ -7,7 +7,7 @@ use clap::Args;
 
 use anybox::bench::{
     bop_set, default_variants, detection_sets, detection_table, markdown_table, run_detection,
-    run_variant, synthetic_set, BenchSet,
+    run_variant, seed_summary_table, synthetic_set, BenchSet,
 };
 use anybox::io::bop::BopDataset;
 
@@ -48,6 +48,11 @@ pub struct BenchArgs {
     /// Skip the detection rows (`--masks detect`).
     #[arg(long)]
     pub no_detect: bool,
+    /// Run the generated detection rows on each of these seeds (comma-separated, e.g.
+    /// `2026,7,11`) instead of `--seed` alone, and end with a table of AP@0.5 per set and seed
+    /// and the means over the seeds. Judge a change on seeds it was not chosen on.
+    #[arg(long, value_name = "S,S,...", value_delimiter = ',', num_args = 1..)]
+    pub detect_seeds: Vec<u64>,
     /// Also write the markdown to this file.
     #[arg(long, value_name = "MD")]
     pub markdown: Option<PathBuf>,
@@ -106,21 +111,38 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     if !args.no_detect {
         let config = crate::cmd_estimate::load_config(args.config.as_deref())?;
-        let mut rows = Vec::new();
-        for set in detection_sets(args.seed, args.detect_frames) {
-            eprintln!("detection: {} …", set.name);
-            rows.push(run_detection(
-                &set,
-                &config,
-                args.min_visib,
-                args.detect_reps,
-            ));
+        let seeds = if args.detect_seeds.is_empty() {
+            vec![args.seed]
+        } else {
+            args.detect_seeds.clone()
+        };
+        let mut table = String::new();
+        let mut per_seed = Vec::new();
+        for &seed in &seeds {
+            let mut rows = Vec::new();
+            for set in detection_sets(seed, args.detect_frames) {
+                eprintln!("detection (seed {seed}): {} …", set.name);
+                rows.push(run_detection(
+                    &set,
+                    &config,
+                    args.min_visib,
+                    args.detect_reps,
+                ));
+            }
+            let title = format!(
+                "Detection, generated (realistic noise, seed {seed}, visib >= {})",
+                args.min_visib
+            );
+            if !table.is_empty() {
+                table.push('\n');
+            }
+            table.push_str(&detection_table(&title, &rows));
+            per_seed.push((seed, rows.iter().map(|r| r.aps()).collect::<Vec<_>>()));
         }
-        let title = format!(
-            "Detection, generated (realistic noise, seed {}, visib >= {})",
-            args.seed, args.min_visib
-        );
-        let mut table = detection_table(&title, &rows);
+        if !args.detect_seeds.is_empty() {
+            table.push('\n');
+            table.push_str(&seed_summary_table(&per_seed));
+        }
         if let Some(ycbv) = sets.iter().find(|s| s.name.starts_with("ycbv")) {
             eprintln!("detection: {} …", ycbv.name);
             let row = run_detection(ycbv, &config, 0.1, args.detect_reps);

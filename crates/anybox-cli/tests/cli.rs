@@ -392,3 +392,49 @@ fn detect_masks_in_dataset_mode_and_clear_error_without_depth() {
     ]);
     assert_clean_failure(&o, "no valid pixel");
 }
+
+/// `bench --detect-seeds` runs the generated detection rows once per seed and ends with the
+/// per-seed summary, in the printed output and in the markdown file.
+#[test]
+fn bench_over_several_seeds_ends_with_the_seed_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let md = dir.path().join("bench.md");
+    let md_arg = md.display().to_string();
+    let missing = dir.path().join("no-ycbv").display().to_string();
+    let o = anybox(&[
+        "bench",
+        "--ycbv",
+        &missing,
+        "--only",
+        "NO-SUCH-VARIANT",
+        "--instances",
+        "1",
+        "--detect-frames",
+        "1",
+        "--detect-seeds",
+        "3,4",
+        "--markdown",
+        &md_arg,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    for needle in [
+        "Detection, generated (realistic noise, seed 3,",
+        "Detection, generated (realistic noise, seed 4,",
+        "**Detection AP@0.5 by seed**",
+        "| set | seed 3 | seed 4 | mean AP@0.5 |",
+    ] {
+        assert!(out.contains(needle), "{needle:?} missing from\n{out}");
+    }
+    // Five sets and the row over all of them, each with two seed cells.
+    let summary: Vec<&str> = out
+        .lines()
+        .skip_while(|l| !l.starts_with("| set | seed 3 | seed 4 |"))
+        .skip(2)
+        .take_while(|l| l.starts_with('|'))
+        .collect();
+    assert_eq!(summary.len(), 6, "{summary:?}");
+    assert!(summary[5].starts_with("| all sets |"), "{summary:?}");
+    let written = std::fs::read_to_string(&md).expect("the markdown file is written");
+    assert!(written.contains("**Detection AP@0.5 by seed**"));
+}

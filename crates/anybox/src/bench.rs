@@ -609,9 +609,169 @@ pub fn detection_table(title: &str, rows: &[DetectionResult]) -> String {
     s
 }
 
+/// One detection row's accuracy: AP@0.25 / 0.5 / 0.7 and AP@0.5 from ground-truth masks
+/// (`None` where the evaluator gives none, e.g. a set with no counted box).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DetectionAps {
+    /// Set name.
+    pub name: String,
+    /// AP@0.25, 3D IoU.
+    pub ap25: Option<f64>,
+    /// AP@0.5, 3D IoU.
+    pub ap50: Option<f64>,
+    /// AP@0.7, 3D IoU.
+    pub ap70: Option<f64>,
+    /// AP@0.5 of the same frames from the ground-truth visible masks.
+    pub gt_ap50: Option<f64>,
+}
+
+impl DetectionResult {
+    /// The row's AP columns.
+    pub fn aps(&self) -> DetectionAps {
+        let ap = |r: &Report, t: &str| r.overall.iou_ap.get(t).copied().flatten();
+        DetectionAps {
+            name: self.name.clone(),
+            ap25: ap(&self.report, "0.25"),
+            ap50: ap(&self.report, "0.5"),
+            ap70: ap(&self.report, "0.7"),
+            gt_ap50: ap(&self.gt_masks, "0.5"),
+        }
+    }
+}
+
+/// Markdown summary of the detection rows of several seeds (`anybox bench --detect-seeds`):
+/// one row per set with its AP@0.5 on each seed and the mean over the seeds, then a row
+/// over every set and seed (the mean of all cells), with the means of AP@0.25, AP@0.7 and
+/// the ground-truth-mask AP@0.5 alongside. Means are of the unrounded APs and skip missing
+/// ones; sets are matched by name, in the first seed's order.
+pub fn seed_summary_table(per_seed: &[(u64, Vec<DetectionAps>)]) -> String {
+    use std::fmt::Write as _;
+    let mean = |v: &[f64]| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
+    let fmt = |v: Option<f64>, d: usize| v.map_or("–".to_string(), |x| format!("{x:.d$}"));
+    let names: Vec<&str> = per_seed
+        .first()
+        .map(|(_, rows)| rows.iter().map(|r| r.name.as_str()).collect())
+        .unwrap_or_default();
+    let row_of = |rows: &'_ [DetectionAps], name: &str| -> Option<DetectionAps> {
+        rows.iter().find(|r| r.name == name).cloned()
+    };
+    let seeds: Vec<String> = per_seed.iter().map(|(s, _)| format!("seed {s}")).collect();
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "**Detection AP@0.5 by seed** — the rows above, per seed; means over the seeds (of the unrounded APs).\n"
+    );
+    let _ = writeln!(
+        s,
+        "| set | {} | mean AP@0.5 | mean AP@0.25 | mean AP@0.7 | mean AP@0.5, GT masks |",
+        seeds.join(" | ")
+    );
+    let _ = writeln!(s, "|---|{}---|---|---|---|", "---|".repeat(seeds.len()));
+    let (mut all50, mut all25, mut all70, mut all_gt) = (vec![], vec![], vec![], vec![]);
+    for name in &names {
+        let rows: Vec<Option<DetectionAps>> =
+            per_seed.iter().map(|(_, r)| row_of(r, name)).collect();
+        let col = |f: fn(&DetectionAps) -> Option<f64>| -> Vec<f64> {
+            rows.iter().flatten().filter_map(f).collect()
+        };
+        let (a50, a25, a70, gt) = (
+            col(|r| r.ap50),
+            col(|r| r.ap25),
+            col(|r| r.ap70),
+            col(|r| r.gt_ap50),
+        );
+        let cells: Vec<String> = rows
+            .iter()
+            .map(|r| fmt(r.as_ref().and_then(|r| r.ap50), 3))
+            .collect();
+        let _ = writeln!(
+            s,
+            "| {name} | {} | {} | {} | {} | {} |",
+            cells.join(" | "),
+            fmt(mean(&a50), 4),
+            fmt(mean(&a25), 4),
+            fmt(mean(&a70), 4),
+            fmt(mean(&gt), 4)
+        );
+        all50.extend(a50);
+        all25.extend(a25);
+        all70.extend(a70);
+        all_gt.extend(gt);
+    }
+    let per_seed_all: Vec<String> = per_seed
+        .iter()
+        .map(|(_, rows)| {
+            let v: Vec<f64> = rows
+                .iter()
+                .filter(|r| names.contains(&r.name.as_str()))
+                .filter_map(|r| r.ap50)
+                .collect();
+            fmt(mean(&v), 3)
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "| all sets | {} | {} | {} | {} | {} |",
+        per_seed_all.join(" | "),
+        fmt(mean(&all50), 4),
+        fmt(mean(&all25), 4),
+        fmt(mean(&all70), 4),
+        fmt(mean(&all_gt), 4)
+    );
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The seed summary averages each set over the seeds and every cell over all, from the
+    /// unrounded APs, skips missing APs, and matches sets by name whatever their order.
+    #[test]
+    fn seed_summary_averages_sets_over_seeds_and_all_cells() {
+        let row = |name: &str, ap50: Option<f64>, ap25: f64| DetectionAps {
+            name: name.into(),
+            ap25: Some(ap25),
+            ap50,
+            ap70: Some(0.5 * ap25),
+            gt_ap50: Some(0.9),
+        };
+        let per_seed = vec![
+            (
+                1,
+                vec![
+                    row("pallet", Some(0.8004), 0.9),
+                    row("shelf", Some(0.6), 0.8),
+                ],
+            ),
+            // Another order, and a missing AP@0.5.
+            (
+                2,
+                vec![row("shelf", None, 0.7), row("pallet", Some(0.7002), 0.8)],
+            ),
+        ];
+        let t = seed_summary_table(&per_seed);
+        let line = |name: &str| -> Vec<String> {
+            let l = t
+                .lines()
+                .find(|l| l.starts_with(&format!("| {name} |")))
+                .unwrap_or_else(|| panic!("no row {name} in\n{t}"));
+            l.split('|').map(|c| c.trim().to_string()).collect()
+        };
+        // | name | seed 1 | seed 2 | mean 0.5 | mean 0.25 | mean 0.7 | mean GT |
+        let p = line("pallet");
+        assert_eq!(
+            &p[1..8],
+            ["pallet", "0.800", "0.700", "0.7503", "0.8500", "0.4250", "0.9000"]
+        );
+        let sh = line("shelf");
+        assert_eq!(&sh[1..5], ["shelf", "0.600", "–", "0.6000"]);
+        // All cells: (0.8004 + 0.6 + 0.7002) / 3 at AP@0.5; per seed the mean of its sets.
+        let all = line("all sets");
+        assert_eq!(&all[2..5], ["0.700", "0.700", "0.7002"]);
+        assert_eq!(all[5], "0.8000");
+        assert!(t.contains("| set | seed 1 | seed 2 | mean AP@0.5 |"), "{t}");
+    }
 
     /// The detection rows carry a ground-truth-mask reference over the same frames: the same
     /// counted boxes, one estimate per box (no false positives), and on uncluttered table
