@@ -667,6 +667,11 @@ pub fn seed_summary_table(per_seed: &[(u64, Vec<DetectionAps>)]) -> String {
         seeds.join(" | ")
     );
     let _ = writeln!(s, "|---|{}---|---|---|---|", "---|".repeat(seeds.len()));
+    // A row: its label, its per-seed cells, then the means of AP@0.5 / 0.25 / 0.7 / GT masks.
+    let row = |s: &mut String, label: &str, cells: &[String], means: [&Vec<f64>; 4]| {
+        let m: Vec<String> = means.iter().map(|v| fmt(mean(v), 4)).collect();
+        let _ = writeln!(s, "| {label} | {} | {} |", cells.join(" | "), m.join(" | "));
+    };
     let (mut all50, mut all25, mut all70, mut all_gt) = (vec![], vec![], vec![], vec![]);
     for name in &names {
         let rows: Vec<Option<DetectionAps>> =
@@ -684,15 +689,7 @@ pub fn seed_summary_table(per_seed: &[(u64, Vec<DetectionAps>)]) -> String {
             .iter()
             .map(|r| fmt(r.as_ref().and_then(|r| r.ap50), 3))
             .collect();
-        let _ = writeln!(
-            s,
-            "| {name} | {} | {} | {} | {} | {} |",
-            cells.join(" | "),
-            fmt(mean(&a50), 4),
-            fmt(mean(&a25), 4),
-            fmt(mean(&a70), 4),
-            fmt(mean(&gt), 4)
-        );
+        row(&mut s, name, &cells, [&a50, &a25, &a70, &gt]);
         all50.extend(a50);
         all25.extend(a25);
         all70.extend(a70);
@@ -709,14 +706,11 @@ pub fn seed_summary_table(per_seed: &[(u64, Vec<DetectionAps>)]) -> String {
             fmt(mean(&v), 3)
         })
         .collect();
-    let _ = writeln!(
-        s,
-        "| all sets | {} | {} | {} | {} | {} |",
-        per_seed_all.join(" | "),
-        fmt(mean(&all50), 4),
-        fmt(mean(&all25), 4),
-        fmt(mean(&all70), 4),
-        fmt(mean(&all_gt), 4)
+    row(
+        &mut s,
+        "all sets",
+        &per_seed_all,
+        [&all50, &all25, &all70, &all_gt],
     );
     s
 }
