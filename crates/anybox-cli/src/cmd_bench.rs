@@ -48,6 +48,9 @@ pub struct BenchArgs {
     /// Skip the detection rows (`--masks detect`).
     #[arg(long)]
     pub no_detect: bool,
+    /// Only the detection rows: no estimator variant tables (and no generated set for them).
+    #[arg(long, conflicts_with_all = ["dataset", "only", "no_detect"])]
+    pub detect_only: bool,
     /// Run the generated detection rows on each of these seeds (comma-separated, e.g.
     /// `2026,7,11`) instead of `--seed` alone, and end with a table of AP@0.5 per set and seed
     /// and the means over the seeds. Judge a change on seeds it was not chosen on.
@@ -66,6 +69,7 @@ pub struct BenchArgs {
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let mut sets: Vec<BenchSet> = Vec::new();
     match &args.dataset {
+        _ if args.detect_only => {}
         Some(root) => {
             let ds = BopDataset::open(root, &args.split)?;
             sets.push(bop_set(&ds, &root.display().to_string(), args.min_visib)?);
@@ -87,9 +91,11 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let variants: Vec<_> = default_variants()
         .into_iter()
         .filter(|v| {
-            args.only
-                .as_ref()
-                .is_none_or(|o| v.name.contains(o.as_str()))
+            !args.detect_only
+                && args
+                    .only
+                    .as_ref()
+                    .is_none_or(|o| v.name.contains(o.as_str()))
         })
         .collect();
     let mut md = String::new();

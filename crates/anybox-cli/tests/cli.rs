@@ -393,8 +393,8 @@ fn detect_masks_in_dataset_mode_and_clear_error_without_depth() {
     assert_clean_failure(&o, "no valid pixel");
 }
 
-/// `bench --detect-seeds` runs the generated detection rows once per seed and ends with the
-/// per-seed summary, in the printed output and in the markdown file.
+/// `bench --detect-only --detect-seeds` runs only the generated detection rows, once per seed,
+/// and ends with the per-seed summary, in the printed output and in the markdown file.
 #[test]
 fn bench_over_several_seeds_ends_with_the_seed_summary() {
     let dir = tempfile::tempdir().unwrap();
@@ -405,10 +405,7 @@ fn bench_over_several_seeds_ends_with_the_seed_summary() {
         "bench",
         "--ycbv",
         &missing,
-        "--only",
-        "NO-SUCH-VARIANT",
-        "--instances",
-        "1",
+        "--detect-only",
         "--detect-frames",
         "1",
         "--detect-seeds",
@@ -435,6 +432,8 @@ fn bench_over_several_seeds_ends_with_the_seed_summary() {
         .collect();
     assert_eq!(summary.len(), 6, "{summary:?}");
     assert!(summary[5].starts_with("| all sets |"), "{summary:?}");
+    // --detect-only: no estimator variant table.
+    assert!(!out.contains("| variant |"), "{out}");
     let written = std::fs::read_to_string(&md).expect("the markdown file is written");
     assert!(written.contains("**Detection AP@0.5 by seed**"));
 }
