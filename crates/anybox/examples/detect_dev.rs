@@ -3,8 +3,6 @@
 //!
 //! `cargo run --release -p anybox --example detect_dev -- [views-per-config] [dump-dir]`
 //! Env: `SEED=<u64>` (default 7), `ONLY=<layout>`, `NOISE=none`, `DETECT_CFG=<json>`, `LABELS=1`,
-//! `BENCH_VIEWS=1` (the views of `anybox bench --seed <SEED>`'s detection sets, view `i` being
-//! the bench's view `i`; without it the views differ from the bench's),
 //! `EST=1`, `VERBOSE=1` (with `LEVEL=0|1|2`: which labels a missed box's cover and purity
 //! come from: surfaces, colour patches, objects; default objects), `VIEW=<index>` (one view
 //! only), `KIND=1` (per detection: exact, part of one box, bleeding into others, mixed or junk,
@@ -34,6 +32,9 @@
 //! the bench's frame (`runner::run_detected_frame`, config `<json>`, e.g. `{}`) and prints
 //! each record's kind (detection, union, repeat, unseen-extent or lattice reading), score and
 //! best 3D IoU with a GT box.
+//! View `i` of `SEED=S` is view `i` of the same set in `anybox bench --seed S`: a view is drawn
+//! from its scene index and the seed alone (`synth::generate_view`), and the sets ask for the
+//! bench's distractors (none for pallets and shelves).
 //! A GT box counts when its visible fraction is ≥ 0.5; a detection is a true positive when its
 //! mask IoU with an unmatched such GT is > 0.5 (greedy in score order); detections matching a
 //! GT with lower visibility are ignored (neither TP nor FP).
@@ -462,13 +463,7 @@ fn main() {
         }
         let sc = SynthConfig {
             layout,
-            // `BENCH_VIEWS=1`: the views of `anybox bench`'s detection sets (its generator
-            // draws every view from an unbounded scene count).
-            scenes: if std::env::var("BENCH_VIEWS").is_ok() {
-                u32::MAX
-            } else {
-                n_views
-            },
+            scenes: n_views,
             views: 1,
             distractors,
             seed: std::env::var("SEED")

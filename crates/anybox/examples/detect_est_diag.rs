@@ -16,7 +16,8 @@
 //! Env: `SEED=<u64>` (default 2026), `ONLY=pallet|table-d0|table-d8|table-d32|shelf` (default
 //! table-d0), `VIEWS=<n>` (default 24), `EST_CFG=<json>` (a partial `Config`, e.g.
 //! `{"scale":{"template_mm":[250,150,60]}}`).
-//! The scenes are those of `detect_dev` (`scenes: n`), not of `anybox bench`.
+//! The views are those of `detect_dev` and of `anybox bench --seed <SEED>` alike (view `i` is
+//! drawn from its scene index and the seed alone, `synth::generate_view`).
 
 use anybox::config::Config;
 use anybox::detect::detect_boxes;
