@@ -652,6 +652,7 @@ pub(crate) fn bridge_tape(
             })
             .collect();
         let (t0, t1) = range(t, &axis);
+        let across_px = across_steps(&cells[t], w);
         for (x, &a) in sides.iter().enumerate() {
             for &b in &sides[x + 1..] {
                 let (ra, rb) = (&regions[a], &regions[b]);
@@ -700,6 +701,16 @@ pub(crate) fn bridge_tape(
                 if rt.normal.dot(&ra.normal).min(rt.normal.dot(&rb.normal)) < cos_tilt {
                     continue;
                 }
+                // A joint right at the strip's edge: the side beyond it is another carton.
+                if cfg.tape_joint_min_share > 0.0
+                    && [a, b].iter().any(|&side| {
+                        let (n, seam) = walks_into(g, labels, &cells[t], side, across_px, gap);
+                        n >= cfg.tape_joint_min_walks.max(1) as usize
+                            && seam as f64 >= cfg.tape_joint_min_share * n as f64
+                    })
+                {
+                    continue;
+                }
                 let (x0, x1) = (a0.max(b0), a1.min(b1));
                 let ra_ = root(&mut parent, a);
                 let rb_ = root(&mut parent, b);
@@ -720,6 +731,67 @@ pub(crate) fn bridge_tape(
         }
     }
     compact_labels(labels, n, |l| root(&mut parent, l))
+}
+
+/// The two unit grid steps most across a strip of cells (`cells`, row-major indices on a grid
+/// `w` wide): down and up for a strip lying along the rows, left and right otherwise (from
+/// the second moments of its cells' positions).
+fn across_steps(cells: &[usize], w: usize) -> [(isize, isize); 2] {
+    let n = cells.len().max(1) as f64;
+    let (mut su, mut sv, mut suu, mut svv, mut suv) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for &i in cells {
+        let (u, v) = ((i % w) as f64, (i / w) as f64);
+        (su, sv) = (su + u, sv + v);
+        (suu, svv, suv) = (suu + u * u, svv + v * v, suv + u * v);
+    }
+    let (mu, mv) = (su / n, sv / n);
+    let (cuu, cvv, cuv) = (suu / n - mu * mu, svv / n - mv * mv, suv / n - mu * mv);
+    // Angle of the strip's long axis in the image.
+    let ang = 0.5 * (2.0 * cuv).atan2(cuu - cvv);
+    if ang.cos().abs() >= ang.sin().abs() {
+        [(0, -1), (0, 1)]
+    } else {
+        [(-1, 0), (1, 0)]
+    }
+}
+
+/// Walks from each of a strip's `cells` by the grid steps `dirs` (see [`across_steps`]),
+/// through unlabelled cells, for at most `gap` cells, to the first labelled cell: how many
+/// walks end in region `side`, and how many of those pass a seam cell on the way (the cell
+/// reached included, the strip's own cell not). See [`DetectConfig::tape_joint_min_share`].
+fn walks_into(
+    g: &Grid,
+    labels: &[u32],
+    cells: &[usize],
+    side: usize,
+    dirs: [(isize, isize); 2],
+    gap: usize,
+) -> (usize, usize) {
+    let (w, h) = (g.w as isize, g.h as isize);
+    let (mut walks, mut seams) = (0usize, 0usize);
+    for &i in cells {
+        let (u, v) = ((i % g.w) as isize, (i / g.w) as isize);
+        for (du, dv) in dirs {
+            let mut seam = false;
+            for d in 1..=gap as isize {
+                let (uu, vv) = (u + du * d, v + dv * d);
+                if uu < 0 || vv < 0 || uu >= w || vv >= h {
+                    break;
+                }
+                let j = (vv * w + uu) as usize;
+                seam |= g.seam[j];
+                if labels[j] == NONE {
+                    continue;
+                }
+                if labels[j] as usize == side {
+                    walks += 1;
+                    seams += usize::from(seam);
+                }
+                break;
+            }
+        }
+    }
+    (walks, seams)
 }
 
 /// Relabels `labels` (values below `n`, or `NONE`) through `root` (every label to the one it
@@ -961,6 +1033,70 @@ mod tests {
         assert_eq!(bridged(22.0, 0.0, PALE, 0..H), (1, true));
         // A piece of tape along a quarter of the top bridges it when it lies flat ...
         assert_eq!(bridged(0.0, 0.0, PALE, 15..25), (1, true));
+    }
+
+    /// [`bridged_with`] on the flat [`taped_top`] with pale tape along `strip_rows`, and seam
+    /// cells in column `seam_col` on `seam_rows`.
+    fn bridged_seamed(
+        cfg: &DetectConfig,
+        strip_rows: std::ops::Range<usize>,
+        seam_col: usize,
+        seam_rows: std::ops::Range<usize>,
+    ) -> (usize, bool) {
+        let (mut g, mut labels) = taped_top(0.0, 0.0, PALE, strip_rows);
+        for v in seam_rows {
+            g.seam[v * W + seam_col] = true;
+        }
+        let regions = fit_regions(&g, &labels, 3, cfg);
+        let mut strip = vec![false; W * H];
+        let n = bridge_tape(&g, &mut labels, &regions, &mut strip, cfg);
+        (n, strip.iter().any(|&s| s))
+    }
+
+    #[test]
+    fn tape_does_not_bridge_to_a_side_past_a_joint_along_its_edge() {
+        let cfg = DetectConfig::default();
+        let (edge, inside) = (STRIP.end, STRIP.end + 1);
+        // Premise: bridged without seams.
+        assert_eq!(bridged_seamed(&cfg, 0..H, edge, 0..0), (1, true));
+        // A joint along the whole edge between the strip and the right half: 40 walks
+        // across the strip reach the right half, all through a seam cell.
+        assert_eq!(bridged_seamed(&cfg, 0..H, edge, 0..H), (3, false));
+        // The share: 32 of 40 (0.8) stops it, 31 does not.
+        assert_eq!(bridged_seamed(&cfg, 0..H, edge, 0..32), (3, false));
+        assert_eq!(bridged_seamed(&cfg, 0..H, edge, 0..31), (1, true));
+        // A line inside the half, past the cell a walk reaches first, is no joint at the edge.
+        assert_eq!(bridged_seamed(&cfg, 0..H, inside, 0..H), (1, true));
+        // A piece of tape 9 rows long gives 9 walks: too few to say (`tape_joint_min_walks`).
+        assert_eq!(bridged_seamed(&cfg, 15..24, edge, 0..H), (1, true));
+        let nine = DetectConfig {
+            tape_joint_min_walks: 9,
+            ..DetectConfig::default()
+        };
+        assert_eq!(bridged_seamed(&nine, 15..24, edge, 0..H), (3, false));
+        // 0 disables.
+        let off = DetectConfig {
+            tape_joint_min_share: 0.0,
+            ..DetectConfig::default()
+        };
+        assert_eq!(bridged_seamed(&off, 0..H, edge, 0..H), (1, true));
+    }
+
+    #[test]
+    fn across_steps_walk_across_a_strip_of_either_direction() {
+        let w = 20;
+        let column: Vec<usize> = (0..10).map(|v| v * w + 5).collect();
+        assert_eq!(across_steps(&column, w), [(-1, 0), (1, 0)]);
+        let row: Vec<usize> = (3..15).map(|u| 4 * w + u).collect();
+        assert_eq!(across_steps(&row, w), [(0, -1), (0, 1)]);
+        // A band at 30° below the rows is nearer the rows: walked across vertically.
+        let band: Vec<usize> = (0..12)
+            .flat_map(|u| {
+                let v = 2 + (u as f64 * 30f64.to_radians().tan()).round() as usize;
+                [v * w + u, (v + 1) * w + u]
+            })
+            .collect();
+        assert_eq!(across_steps(&band, w), [(0, -1), (0, 1)]);
     }
 
     #[test]
