@@ -75,9 +75,9 @@ pub(crate) fn cut_along_seam_lines(
 
 /// A line in the patch's window, cells: through `p`, along the unit direction `d`.
 #[derive(Clone, Copy)]
-struct Line {
+pub(super) struct Line {
     p: (f32, f32),
-    d: (f32, f32),
+    pub(super) d: (f32, f32),
 }
 
 impl Line {
@@ -93,7 +93,7 @@ impl Line {
 
     /// Total-least-squares line through `pts` (the principal axis of their scatter); `None`
     /// for fewer than two points.
-    fn fit(pts: impl Iterator<Item = (f32, f32)> + Clone) -> Option<Line> {
+    pub(super) fn fit(pts: impl Iterator<Item = (f32, f32)> + Clone) -> Option<Line> {
         let n = pts.clone().count();
         if n < 2 {
             return None;

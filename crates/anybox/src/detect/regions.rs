@@ -11,6 +11,7 @@
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 use super::grid::{jump_tol, patch_cut_deg, Grid};
+use super::lines::Line;
 use super::DetectConfig;
 use rayon::prelude::*;
 
@@ -734,24 +735,12 @@ pub(crate) fn bridge_tape(
 }
 
 /// The two unit grid steps most across a strip of cells (`cells`, row-major indices on a grid
-/// `w` wide): down and up for a strip lying along the rows, left and right otherwise (from
-/// the second moments of its cells' positions).
+/// `w` wide): down and up for a strip lying along the rows (or of fewer than two cells), left
+/// and right otherwise (by the principal axis of its cells' positions, [`Line::fit`]).
 fn across_steps(cells: &[usize], w: usize) -> [(isize, isize); 2] {
-    let n = cells.len().max(1) as f64;
-    let (mut su, mut sv, mut suu, mut svv, mut suv) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for &i in cells {
-        let (u, v) = ((i % w) as f64, (i / w) as f64);
-        (su, sv) = (su + u, sv + v);
-        (suu, svv, suv) = (suu + u * u, svv + v * v, suv + u * v);
-    }
-    let (mu, mv) = (su / n, sv / n);
-    let (cuu, cvv, cuv) = (suu / n - mu * mu, svv / n - mv * mv, suv / n - mu * mv);
-    // Angle of the strip's long axis in the image.
-    let ang = 0.5 * (2.0 * cuv).atan2(cuu - cvv);
-    if ang.cos().abs() >= ang.sin().abs() {
-        [(0, -1), (0, 1)]
-    } else {
-        [(-1, 0), (1, 0)]
+    match Line::fit(cells.iter().map(|&i| ((i % w) as f32, (i / w) as f32))) {
+        Some(line) if line.d.0.abs() < line.d.1.abs() => [(-1, 0), (1, 0)],
+        _ => [(0, -1), (0, 1)],
     }
 }
 
