@@ -854,15 +854,12 @@ fn object_candidates(
                 let profile = room.then(|| find_profile_cut(g, &fr, &blob, cfg)).flatten();
                 if let Some(c) = profile {
                     let (lo, hi) = by_plane(c, "profile");
-                    let part_score = |p: &[u32]| {
-                        frame_of(g, p, cfg)
-                            .and_then(|f| score_part(p, &f))
-                            .map(|r| shape(&r))
-                    };
+                    let part = |p: &[u32]| frame_of(g, p, cfg).and_then(|f| score_part(p, &f));
+                    let (ra, rb) = (part(&lo), part(&hi));
                     // A part that scores as no box counts as 0.
                     let (sa, sb) = (
-                        part_score(&lo).unwrap_or(0.0),
-                        part_score(&hi).unwrap_or(0.0),
+                        ra.as_ref().map_or(0.0, &shape),
+                        rb.as_ref().map_or(0.0, &shape),
                     );
                     let mean = (sa * lo.len() as f64 + sb * hi.len() as f64)
                         / (lo.len() + hi.len()) as f64;
@@ -877,6 +874,14 @@ fn object_candidates(
                         work.push((next, hi, depth + 1));
                         next += 1;
                         continue;
+                    }
+                    // The whole stands; its parts may still be the right reading (two
+                    // boxes stacked whose union is as good a cuboid).
+                    if cfg.blob_profile_cut_alternatives {
+                        out.extend([ra, rb].into_iter().flatten().map(|r| Raw {
+                            lost_cut: true,
+                            ..r
+                        }));
                     }
                 }
                 whole_scored = whole;

@@ -630,6 +630,9 @@ pub(crate) struct Raw {
     pub bx: OrientedBox,
     /// Plane normal of the largest face.
     pub normal: Vector3<f64>,
+    /// A part of a profile cut that lost to the whole object it would have cut: an
+    /// alternative reading only (see [`DetectConfig::blob_profile_cut_alternatives`]).
+    pub lost_cut: bool,
 }
 
 /// Whether a face-grouping take-in admits region `r` into face `fi` of the faces given
@@ -1840,6 +1843,7 @@ pub(crate) fn score_faces(
         n_faces: n_faces as u8,
         bx,
         normal: normals[largest],
+        lost_cut: false,
     })
 }
 

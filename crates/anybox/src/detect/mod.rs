@@ -1141,6 +1141,17 @@ pub struct DetectConfig {
     /// first version that took every cut it found, the largest move first, hidden only past
     /// the depth-jump tolerance: 1178 and 966).
     pub blob_profile_cut_margin: f64,
+    /// A profile cut that loses to its whole (`blob_profile_cut_margin`) still gives its two
+    /// parts, scored as boxes, as alternative readings ([`Detection::alternative`], scored
+    /// `alternative_score_factor` times their own score, on top of `alternatives_max`): two
+    /// boxes stacked, one on the other, are often as good a cuboid together as apart, and the
+    /// whole then hides both. Default true (bench, 48 views, mean AP@0.5 against false:
+    /// tables +0.0010 / +0.0015 / +0.0013 (0 / 8 / 32 distractors) on seeds 2026 / 7 / 11 /
+    /// 3 / 5 / 13, +0.0024 / +0.0024 / +0.0022 on 17 / 19 / 23 / 29 / 31 / 37, +0.0023 /
+    /// +0.0019 / +0.0013 on 41 / 43 / 47 / 53 / 59 / 61; pallets 0 / −0.0001 / −0.0007,
+    /// shelves within ±0.0002. Counted within `alternatives_max`, where most frames' two
+    /// are taken already: +0.0011 / +0.0011 / +0.0007 on 41…61, pallets −0.0008).
+    pub blob_profile_cut_alternatives: bool,
     /// See `blob_profile_cut_min_mm`: the first-ranked cut is not made when at least this
     /// share (and 3) of the object's cells within two bins of it lie within two cells of a
     /// cell of another thing nearer by more than the jump tolerance: a box lying or standing
@@ -1298,7 +1309,9 @@ pub struct DetectConfig {
     /// whole) are returned as well, flagged [`Detection::alternative`] and scored
     /// `alternative_score_factor` times their own score: where the chosen reading of a cluster
     /// is wrong (two cartons merged, one carton in pieces) the other may be right. Each costs
-    /// one more estimate. 0 disables. Default 2 (bench, 24 views, AP@0.5 against 0, seeds
+    /// one more estimate. The parts of profile cuts that lost to their whole
+    /// (`blob_profile_cut_alternatives`) come on top of this many. 0 disables every
+    /// alternative. Default 2 (bench, 24 views, AP@0.5 against 0, seeds
     /// 2026 / 7 / 11: pallets +0.018 / +0.004 / +0.010, tables +0.003 to +0.025, shelves
     /// +0.008 / +0.005 / 0, none lower; 4 gained up to +0.012 more on tables of seed 2026 only,
     /// at about 30 ms more per shelf frame; candidates dropped for overlapping a better one
@@ -1567,6 +1580,7 @@ impl Default for DetectConfig {
             blob_profile_cut_min_mm: 15.0,
             blob_profile_cut_min_part_mm: 30.0,
             blob_profile_cut_margin: 0.1,
+            blob_profile_cut_alternatives: true,
             blob_profile_cut_occluder_share: 0.125,
             blob_weak_step_factor: 1.0,
             blob_step_min_fraction: 0.15,
@@ -2982,6 +2996,8 @@ fn select(
     col: Vec<boxes::Raw>,
     cfg: &DetectConfig,
 ) -> (Vec<boxes::Raw>, Vec<boxes::Raw>) {
+    // The parts of lost profile cuts are alternatives only.
+    let (cut_parts, objects): (Vec<_>, Vec<_>) = objects.into_iter().partition(|c| c.lost_cut);
     let planes: Vec<FacePlane> = col.iter().map(|_| FacePlane::new()).collect();
     // The two are independent (the colour patches' planes, fitted once, are shared).
     let ((obj_split, _, _), (geo_split, inside, free)) = rayon::join(
@@ -3002,7 +3018,7 @@ fn select(
     let mut all: Vec<(boxes::Raw, char)> = Vec::new();
     // The other side of each split decision (a coarse candidate split into cartons, or the
     // colour patches of one left whole), kept for alternative readings.
-    let mut lost: Vec<boxes::Raw> = Vec::new();
+    let mut lost: Vec<boxes::Raw> = cut_parts;
     for (k, c) in objects.into_iter().enumerate() {
         if !obj_split[k] {
             all.push((c, 'o'));
@@ -3094,9 +3110,11 @@ fn alternatives(
         sizes.push(c.cells.len());
     }
     let mut out = Vec::new();
+    // Parts of lost profile cuts come on top of `alternatives_max`.
+    let mut counted = 0;
     for c in lost {
-        if out.len() >= max {
-            break;
+        if !c.lost_cut && counted >= max {
+            continue;
         }
         if c.score < cfg.min_score || c.n_faces < cfg.alternative_min_faces {
             continue;
@@ -3118,6 +3136,7 @@ fn alternatives(
             owners[i as usize].push(sizes.len() as u32);
         }
         sizes.push(n);
+        counted += usize::from(!c.lost_cut);
         out.push(c);
     }
     out
