@@ -1150,7 +1150,8 @@ pub struct DetectConfig {
     /// 3 / 5 / 13, +0.0024 / +0.0024 / +0.0022 on 17 / 19 / 23 / 29 / 31 / 37, +0.0023 /
     /// +0.0019 / +0.0013 on 41 / 43 / 47 / 53 / 59 / 61; pallets 0 / −0.0001 / −0.0007,
     /// shelves within ±0.0002. Counted within `alternatives_max`, where most frames' two
-    /// are taken already: +0.0011 / +0.0011 / +0.0007 on 41…61, pallets −0.0008).
+    /// are taken already: +0.0011 / +0.0011 / +0.0007 on 41…61, pallets −0.0008; their scores
+    /// × 3: tables −0.0070 / −0.0094 / −0.0076 there, × 0.4: +0.0006 / +0.0006 / +0.0004).
     pub blob_profile_cut_alternatives: bool,
     /// See `blob_profile_cut_min_mm`: the first-ranked cut is not made when at least this
     /// share (and 3) of the object's cells within two bins of it lie within two cells of a
