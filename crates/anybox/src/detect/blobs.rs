@@ -25,6 +25,8 @@
 //! cross-section steps along a box axis (`blob_profile_cut_min_mm`: two boxes of one colour
 //! side by side, end to end or stacked, their faces flush), when the parts, as boxes, fit
 //! better than the whole and no nearer thing explains the step; the whole competes too.
+//! Where the whole wins, its parts still come back as alternative readings
+//! (`blob_profile_cut_alternatives`).
 //! Flush cartons of one colour that fit one cuboid are split in `select` by their seams, as
 //! surfaces are. A small box's faces bend a little past `max_bend_deg` (its edges' smoothed
 //! normals cover much of each face): an object of three faces that bends no more than

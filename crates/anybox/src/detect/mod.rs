@@ -42,7 +42,8 @@
 //! [`DetectConfig::hole_grow_max_fraction`]); output scores are the box-likeness times an
 //! evidence factor that grows with the mask's size ([`DetectConfig::evidence_half_pixels`]).
 //! A few candidates that lost a split decision come back as alternative readings, flagged
-//! and scored low ([`DetectConfig::alternatives_max`]).
+//! and scored low ([`DetectConfig::alternatives_max`]), as do the parts of a profile cut that
+//! lost to its whole ([`DetectConfig::blob_profile_cut_alternatives`]).
 //!
 //! Every threshold is a documented field of [`DetectConfig`] (`Config::detect`). The detector is
 //! deterministic: the same input and config give the same detections in the same order.
