@@ -971,8 +971,13 @@ fn best_iou_among(dets: &[Detection], gt: &Mask) -> f64 {
 /// Best mask IoU of each of `gts` among one run's detections of `v` under `cfg`
 /// (alternatives included).
 fn best_ious_detected(v: &anybox_synth::SynthView, gts: &[&Mask], cfg: &DetectConfig) -> Vec<f64> {
-    let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
+    let dets = detect_view(v, cfg);
     gts.iter().map(|gt| best_iou_among(&dets, gt)).collect()
+}
+
+/// The detections of generated view `v` under `cfg`.
+fn detect_view(v: &anybox_synth::SynthView, cfg: &DetectConfig) -> Vec<Detection> {
+    detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap()
 }
 
 /// The visible masks of the boxes `ks` of `v` (each checked by [`scene_box`]).
@@ -2883,13 +2888,7 @@ fn a_box_under_another_stacked_on_it_comes_back_from_the_cut_that_lost() {
         "without the parts of the lost cut",
     );
     // It comes as an alternative reading: the stack's whole stays the detection.
-    let dets = detect_boxes(
-        Some(&v.rgb),
-        &v.depth,
-        &v.intrinsics,
-        &DetectConfig::default(),
-    )
-    .unwrap();
+    let dets = detect_view(&v, &DetectConfig::default());
     let best = dets
         .iter()
         .max_by(|a, b| a.mask.iou(gt).total_cmp(&b.mask.iou(gt)))
