@@ -352,13 +352,7 @@ fn touching_pallet_cartons_come_out_separately() {
     let (mut n_gt, mut found, mut merged) = (0usize, 0usize, 0usize);
     for s in 0..cfg.scenes {
         let v = generate_view(&cfg, s, 0);
-        let dets = detect_boxes(
-            Some(&v.rgb),
-            &v.depth,
-            &v.intrinsics,
-            &DetectConfig::default(),
-        )
-        .unwrap();
+        let dets = detect_view(&v, &DetectConfig::default());
         for d in &dets {
             // A detection covering most of two cartons merged them.
             let covering = v
@@ -1027,10 +1021,7 @@ fn a_strip_of_the_halves_own_colour_is_no_tape_to_bridge() {
     let v = generate_view(&sc, 38, 0);
     let layer = visible_masks_of_size(&v, [164.0, 232.0, 282.0], 0.5);
     assert_eq!(layer.len(), 12, "the generator's layer changed");
-    let found = |cfg: &DetectConfig| -> Vec<f64> {
-        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
-        layer.iter().map(|gt| best_iou_among(&dets, gt)).collect()
-    };
+    let found = |cfg: &DetectConfig| best_ious_detected(&v, &layer, cfg);
     let with = found(&DetectConfig::default());
     assert!(with.iter().all(|&x| x > 0.85), "best mask IoUs {with:?}");
     // Premise: bridging any strip (no contrast asked) joins the rows; measured 11 of 12 below
@@ -1141,7 +1132,7 @@ pub(crate) fn pallet_view(seed: u64, scenes: u32, scene: u32) -> anybox_synth::S
 
 /// Per ground-truth box of `v`, the best mask IoU of any detection with its visible mask.
 fn best_mask_ious(v: &anybox_synth::SynthView, cfg: &DetectConfig) -> Vec<f64> {
-    let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
+    let dets = detect_view(v, cfg);
     v.boxes
         .iter()
         .map(|b| best_iou_among(&dets, &b.mask_visib))
@@ -1315,6 +1306,14 @@ fn wholly_visible_box_of_size(
     gt
 }
 
+/// The detection of `view` with the best mask IoU with `gt` (alternatives included).
+fn best_detection(view: &anybox_synth::SynthView, gt: &Mask, cfg: &DetectConfig) -> Detection {
+    detect_view(view, cfg)
+        .into_iter()
+        .max_by(|a, b| a.mask.iou(gt).total_cmp(&b.mask.iou(gt)))
+        .expect("detections")
+}
+
 /// The detection of `view` with the best mask IoU with `gt`'s visible mask, and the 3D IoU
 /// of the default estimator's box from that mask with `gt`.
 fn best_detection_estimated(
@@ -1322,15 +1321,7 @@ fn best_detection_estimated(
     gt: &anybox_synth::SynthBox,
     cfg: &DetectConfig,
 ) -> (Detection, f64) {
-    let d = detect_boxes(Some(&view.rgb), &view.depth, &view.intrinsics, cfg)
-        .unwrap()
-        .into_iter()
-        .max_by(|a, b| {
-            a.mask
-                .iou(&gt.mask_visib)
-                .total_cmp(&b.mask.iou(&gt.mask_visib))
-        })
-        .expect("detections");
+    let d = best_detection(view, &gt.mask_visib, cfg);
     let est = crate::pipeline::estimate_box(
         &view.depth,
         &view.intrinsics,
@@ -1446,7 +1437,7 @@ fn best_primary_ious(
     masks: &[&Mask],
     cfg: &DetectConfig,
 ) -> Vec<f64> {
-    let dets = detect_boxes(Some(&view.rgb), &view.depth, &view.intrinsics, cfg).unwrap();
+    let dets = detect_view(view, cfg);
     masks
         .iter()
         .map(|m| {
@@ -2203,7 +2194,7 @@ fn up_is_the_floor_not_a_larger_wall_seen_at_a_grazing_angle() {
     };
     let v = generate_view(&sc, 21, 0);
     let found = |cfg: &DetectConfig| {
-        let dets = detect_boxes(Some(&v.rgb), &v.depth, &v.intrinsics, cfg).unwrap();
+        let dets = detect_view(&v, cfg);
         let counted: Vec<_> = v.boxes.iter().filter(|b| b.visib_fract >= 0.5).collect();
         let hit = counted
             .iter()
@@ -2888,11 +2879,7 @@ fn a_box_under_another_stacked_on_it_comes_back_from_the_cut_that_lost() {
         "without the parts of the lost cut",
     );
     // It comes as an alternative reading: the stack's whole stays the detection.
-    let dets = detect_view(&v, &DetectConfig::default());
-    let best = dets
-        .iter()
-        .max_by(|a, b| a.mask.iou(gt).total_cmp(&b.mask.iou(gt)))
-        .expect("detections");
+    let best = best_detection(&v, gt, &DetectConfig::default());
     assert!(
         best.alternative,
         "the lower box's best mask is an alternative"
