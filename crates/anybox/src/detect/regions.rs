@@ -653,9 +653,20 @@ pub(crate) fn bridge_tape(
             })
             .collect();
         let (t0, t1) = range(t, &axis);
-        let across_px = across_steps(&cells[t], w);
+        // Whether a joint lines the strip's edge towards each side: walked once per side,
+        // and only for sides of a pair that passes every other test.
+        let mut across_px = None;
+        let mut joint: Vec<Option<bool>> = vec![None; sides.len()];
+        let mut joint_at = |k: usize| {
+            *joint[k].get_or_insert_with(|| {
+                let dirs = *across_px.get_or_insert_with(|| across_steps(&cells[t], w));
+                let (n, seam) = walks_into(g, labels, &cells[t], sides[k], dirs, gap);
+                n >= cfg.tape_joint_min_walks.max(1) as usize
+                    && seam as f64 >= cfg.tape_joint_min_share * n as f64
+            })
+        };
         for (x, &a) in sides.iter().enumerate() {
-            for &b in &sides[x + 1..] {
+            for (y, &b) in sides.iter().enumerate().skip(x + 1) {
                 let (ra, rb) = (&regions[a], &regions[b]);
                 if !coplanar(ra, rb) || !coplanar(rb, ra) {
                     continue;
@@ -703,13 +714,7 @@ pub(crate) fn bridge_tape(
                     continue;
                 }
                 // A joint right at the strip's edge: the side beyond it is another carton.
-                if cfg.tape_joint_min_share > 0.0
-                    && [a, b].iter().any(|&side| {
-                        let (n, seam) = walks_into(g, labels, &cells[t], side, across_px, gap);
-                        n >= cfg.tape_joint_min_walks.max(1) as usize
-                            && seam as f64 >= cfg.tape_joint_min_share * n as f64
-                    })
-                {
+                if cfg.tape_joint_min_share > 0.0 && (joint_at(x) || joint_at(y)) {
                     continue;
                 }
                 let (x0, x1) = (a0.max(b0), a1.min(b1));
