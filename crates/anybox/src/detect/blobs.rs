@@ -715,6 +715,48 @@ pub(crate) fn blob_candidates(
     out
 }
 
+/// `cells` (ascending) scored as one box, uncut: non-member cells labelled [`NONE`] and not
+/// `off` count neither for nor against the silhouette.
+pub(crate) fn score_whole(
+    g: &Grid,
+    cells: &[u32],
+    labels: &[u32],
+    off: &[bool],
+    cfg: &DetectConfig,
+) -> Option<Raw> {
+    if cells.len() < cfg.min_face_cells as usize {
+        return None;
+    }
+    let fr = frame_of(g, cells, cfg)?;
+    score_in_frame(g, cells, &fr, labels, off, cfg)
+}
+
+/// `part` (ascending cells) scored as one box with the faces and axes of `fr`: its own cells
+/// are members, cells labelled [`NONE`] and not `off` are unknown, and any other cell is
+/// judged by depth like any other.
+fn score_in_frame(
+    g: &Grid,
+    part: &[u32],
+    fr: &Frame,
+    labels: &[u32],
+    off: &[bool],
+    cfg: &DetectConfig,
+) -> Option<Raw> {
+    let face_refs: Vec<&[u32]> = fr.faces.iter().map(Vec::as_slice).collect();
+    let member = |i: usize| part.binary_search(&(i as u32)).is_ok();
+    let unknown = |i: usize| labels[i] == NONE && !off[i];
+    score_faces(
+        g,
+        part.to_vec(),
+        &face_refs,
+        &fr.axes,
+        fr.fit,
+        &member,
+        &unknown,
+        cfg,
+    )
+}
+
 /// The candidates of one object (label `b`, its `cells` ascending), cut recursively (depth
 /// first, the far side of a cut first).
 fn object_candidates(
@@ -735,22 +777,9 @@ fn object_candidates(
     // Parts are numbered for the log only: every part's cells stay ascending (cuts keep
     // order), and membership is a binary search.
     let mut next = 1u32;
-    // A part scored as one box: its own cells are members, unlabelled cells off the support
-    // are unknown, and the object's other cells are judged by depth like any other.
+    // A part scored as one box: the object's other cells are judged by depth.
     let score_in = |part: &[u32], fr: &Frame, cfg: &DetectConfig| {
-        let face_refs: Vec<&[u32]> = fr.faces.iter().map(Vec::as_slice).collect();
-        let member = |i: usize| part.binary_search(&(i as u32)).is_ok();
-        let unknown = |i: usize| labels[i] == NONE && !off[i];
-        score_faces(
-            g,
-            part.to_vec(),
-            &face_refs,
-            &fr.axes,
-            fr.fit,
-            &member,
-            &unknown,
-            cfg,
-        )
+        score_in_frame(g, part, fr, labels, off, cfg)
     };
     let score_part = |part: &[u32], fr: &Frame| score_in(part, fr, cfg);
     // (part, cells, cuts so far)

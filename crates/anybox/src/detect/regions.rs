@@ -149,7 +149,7 @@ fn col_dist2(a: &[f32; 3], b: &[f32; 3]) -> f32 {
 /// cues (`all`: depth, colour, seams, and normals past their own depth-grown cut, so that a
 /// pair may join in `all` and not in `geo`).
 pub(crate) struct Joins {
-    depth: Vec<u8>,
+    pub(crate) depth: Vec<u8>,
     geo: Vec<u8>,
     all: Vec<u8>,
 }
