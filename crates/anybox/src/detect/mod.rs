@@ -1026,7 +1026,9 @@ pub struct DetectConfig {
     /// (bench, 48 views per set, tables with 0 / 8 / 32 distractors, pallets, shelves against
     /// the join off: seeds 2026 / 7 / 11 / 3 / 5 / 13 +0.0012 / +0.0021 / +0.0037, −0.0045,
     /// −0.0032; 17–37 +0.0037 / +0.0041 / +0.0036, +0.0028, −0.0020; 41–61 +0.0080 / +0.0075
-    /// / +0.0031, 0, +0.0005; F1NEW. With 2 the tables gained more on seeds 41–61 and 67–89
+    /// / +0.0031, 0, +0.0005; 67–89 +0.0003 / +0.0003 / +0.0022, +0.0037, +0.0070; 97–113,
+    /// drawn after this default was fixed, +0.0023 / +0.0008 / +0.0028, −0.0026, −0.0032.
+    /// With 2 the tables gained more on seeds 41–61 and 67–89
     /// but lost on the first six (−0.0087 / −0.0065 / +0.0020) and pallets lost 0.009–0.021
     /// on the first twelve: a piece of two faces is often a whole carton whose flush
     /// neighbours are the remain.)

@@ -9,9 +9,10 @@
 //! visible surface is then held by no candidate: tried alone as a residual candidate, it is
 //! no box by itself (a thin band, a part of a face). The estimator, given one face, must guess
 //! the box's thickness. Here each candidate of at most
-//! [`DetectConfig::remain_join_max_faces`] faces (one by default) is scored together with each remain that
-//! touches it across a depth join (the remains: what is left of the depth-connected convex
-//! objects once every candidate's cells are taken out); a union whose box-likeness reaches
+//! [`DetectConfig::remain_join_max_faces`] faces (one by default) is scored together with
+//! each remain that touches it across a depth join (the remains: what is left of the
+//! depth-connected convex objects once every candidate's cells are taken out); a union whose
+//! box-likeness reaches
 //! [`DetectConfig::remain_join_min_score_ratio`] times the candidate's own, both scored as
 //! uncut objects (`blobs`), takes the remain in. A remain touched by several candidates goes to
 //! the one whose score it raises most, and a candidate takes at most one remain. A remain
