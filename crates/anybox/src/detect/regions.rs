@@ -149,9 +149,29 @@ fn col_dist2(a: &[f32; 3], b: &[f32; 3]) -> f32 {
 /// cues (`all`: depth, colour, seams, and normals past their own depth-grown cut, so that a
 /// pair may join in `all` and not in `geo`).
 pub(crate) struct Joins {
-    pub(crate) depth: Vec<u8>,
+    depth: Vec<u8>,
     geo: Vec<u8>,
     all: Vec<u8>,
+}
+
+impl Joins {
+    /// The 4-neighbours of cell `i` (grid `w` × `h` cells) that depth continuity joins to it.
+    pub(crate) fn depth_neighbours(
+        &self,
+        i: usize,
+        w: usize,
+        h: usize,
+    ) -> impl Iterator<Item = usize> {
+        let (u, v, d) = (i % w, i / w, &self.depth);
+        [
+            (u + 1 < w && d[i] & 1 != 0).then_some(i + 1),
+            (v + 1 < h && d[i] & 2 != 0).then_some(i + w),
+            (u > 0 && d[i - 1] & 1 != 0).then(|| i - 1),
+            (v > 0 && d[i - w] & 2 != 0).then(|| i - w),
+        ]
+        .into_iter()
+        .flatten()
+    }
 }
 
 /// Which cues cut regions in [`segment`].

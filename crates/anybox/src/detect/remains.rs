@@ -133,32 +133,12 @@ pub(crate) fn join_remains(
 
 /// The remains (labels) that 4-neighbour one of `cells` across a depth join, ascending.
 fn touching_remains(g: &Grid, joins: &Joins, labels: &[u32], cells: &[u32]) -> Vec<u32> {
-    let (w, d) = (g.w, &joins.depth);
-    let mut touch = Vec::new();
-    for &i in cells {
-        let i = i as usize;
-        let (u, v) = (i % w, i / w);
-        // Bit 0 joins a cell to its right neighbour, bit 1 to the one below.
-        let pairs = [
-            (u + 1 < w, i + 1, d[i] & 1),
-            (v + 1 < g.h, i + w, d[i] & 2),
-            (
-                u > 0,
-                i.wrapping_sub(1),
-                if u > 0 { d[i - 1] & 1 } else { 0 },
-            ),
-            (
-                v > 0,
-                i.wrapping_sub(w),
-                if v > 0 { d[i - w] & 2 } else { 0 },
-            ),
-        ];
-        for (inside, j, joined) in pairs {
-            if inside && joined != 0 && labels[j] != NONE {
-                touch.push(labels[j]);
-            }
-        }
-    }
+    let mut touch: Vec<u32> = cells
+        .iter()
+        .flat_map(|&i| joins.depth_neighbours(i as usize, g.w, g.h))
+        .map(|j| labels[j])
+        .filter(|&l| l != NONE)
+        .collect();
     touch.sort_unstable();
     touch.dedup();
     touch

@@ -1821,7 +1821,22 @@ fn assert_all_found_only_with_rule(
     lost_below: f64,
     without: &str,
 ) {
-    let found = best_ious_detected(v, gts, &DetectConfig::default());
+    let on = DetectConfig::default();
+    assert_all_found_with_not_without(v, gts, &on, off, found_above, lost_below, without);
+}
+
+/// Every box of `gts` found with `on` (best mask IoU above `found_above`) and lost with `off`
+/// (below `lost_below`).
+fn assert_all_found_with_not_without(
+    v: &anybox_synth::SynthView,
+    gts: &[&Mask],
+    on: &DetectConfig,
+    off: &DetectConfig,
+    found_above: f64,
+    lost_below: f64,
+    without: &str,
+) {
+    let found = best_ious_detected(v, gts, on);
     let lost = best_ious_detected(v, gts, off);
     assert!(
         found.iter().all(|&x| x > found_above),
@@ -3012,16 +3027,18 @@ fn flush_cartons_twice_a_pieces_size_are_not_joined_to_it() {
         remain_join_max_faces: 2,
         ..DetectConfig::default()
     };
+    let uncapped = DetectConfig {
+        remain_join_max_size_ratio: 100.0,
+        ..two.clone()
+    };
     // Measured: 0.891 / 0.897 / 0.910 with the cap, 0.519 / 0.503 / 0.507 without.
-    let found = best_ious_detected(&v, &row, &two);
-    let lost = best_ious_detected(
+    assert_all_found_with_not_without(
         &v,
         &row,
-        &DetectConfig {
-            remain_join_max_size_ratio: 100.0,
-            ..two
-        },
+        &two,
+        &uncapped,
+        0.85,
+        0.6,
+        "with no cap on the remain's size",
     );
-    assert!(found.iter().all(|&x| x > 0.85), "with the cap: {found:.3?}");
-    assert!(lost.iter().all(|&x| x < 0.6), "without the cap: {lost:.3?}");
 }
