@@ -10,7 +10,12 @@
 //! direction holds two parallel planes (touching boxes of different heights joined through a
 //! flush side) is cut along the axis that separates them, recursively; a step that parts
 //! them by less than `blob_step_factor` but more than `blob_weak_step_factor` plane
-//! tolerances cuts the object too, but leaves it scored whole beside its parts. Objects that
+//! tolerances cuts the object too, but leaves it scored whole beside its parts. A step
+//! between two planes facing the support's up is also read as a box stacked on another (cut
+//! across the up, just past the farther plane; `blob_stack_max_tilt_deg`): flush faces of
+//! one colour look the same either way, so a sure step is cut the way whose parts are the
+//! better boxes (`blob_stack_margin`), and the other reading's parts come back as
+//! alternatives. Objects that
 //! fit a cuboid badly (`blob_min_fit`, `blob_min_agree`) or whose faces bend (`max_bend_deg`:
 //! a cylinder's side) are dropped, unless their plain colour changes across every face a cut
 //! crosses, or failing that, their cells fall into two clusters of clearly different hue
@@ -225,6 +230,10 @@ struct Step {
     /// The planes part by `blob_step_factor` plane tolerances, not only
     /// `blob_weak_step_factor`.
     sure: bool,
+    /// The other reading of the step: the cut {p·a = s0} along the two planes' own normal
+    /// `a` (facing the camera), just past the farther plane, which parts what stands out of
+    /// it from the rest (a box stacked on another when `a` is the support's up).
+    stack: (Vector3<f64>, f64),
 }
 
 /// A step between two parallel planes of one face direction (the tops of two touching boxes
@@ -315,7 +324,11 @@ fn find_step(g: &Grid, fr: &Frame, cfg: &DetectConfig) -> Option<Step> {
             };
             if best.is_none_or(|(b, bsep)| (sure, sep) > (b.sure, bsep)) {
                 let cut = (*e, s0);
-                best = Some((Step { cut, sure }, sep));
+                let stack = (
+                    *ax,
+                    t[x - 1].0 + (cfg.blob_stack_cut_tols * tol).min(gap / 2.0),
+                );
+                best = Some((Step { cut, sure, stack }, sep));
             }
         }
     }
@@ -782,6 +795,31 @@ fn object_candidates(
         score_in_frame(g, part, fr, labels, off, cfg)
     };
     let score_part = |part: &[u32], fr: &Frame| score_in(part, fr, cfg);
+    // A part of a cut scored as a box in its own frame.
+    let score_cut_part = |p: &[u32]| frame_of(g, p, cfg).and_then(|f| score_part(p, &f));
+    // Shape alone (plane fit × silhouette IoU × depth consistency): a part may show fewer
+    // faces than the whole, which says nothing of the cut.
+    let shape = |r: &Raw| {
+        let f = faces_factor(r.n_faces as usize, cfg);
+        if f > 0.0 {
+            r.score / f
+        } else {
+            0.0
+        }
+    };
+    // The shape of a cut's two parts, weighted by cells; a part that is no box counts as 0.
+    let cut_shape = |(lo, hi): (&[u32], &[u32]), (ra, rb): (&Option<Raw>, &Option<Raw>)| {
+        (ra.as_ref().map_or(0.0, shape) * lo.len() as f64
+            + rb.as_ref().map_or(0.0, shape) * hi.len() as f64)
+            / (lo.len() + hi.len()).max(1) as f64
+    };
+    // Parts of a cut not made, kept as alternative readings.
+    let lost = |parts: [Option<Raw>; 2]| {
+        parts.into_iter().flatten().map(|r| Raw {
+            lost_cut: true,
+            ..r
+        })
+    };
     // (part, cells, cuts so far)
     let mut work: Vec<(u32, Vec<u32>, u32)> = vec![(0, cells, 0)];
     let mut out = Vec::new();
@@ -824,11 +862,64 @@ fn object_candidates(
             && fr.bend_deg <= cfg.blob_three_face_max_bend_deg;
         // The whole scored once where the profile test needs it, for the end as well.
         let mut whole_scored: Option<Option<Raw>> = None;
+        // A step between two planes facing the support's up is read both ways: two boxes side
+        // by side (cut between the planes' cells) or one stacked on the other (cut across the
+        // up, past the farther plane). Flush faces of one colour look the same either way; a
+        // sure step is cut the stacked way when those parts are the better boxes by
+        // `blob_stack_margin`, and the reading not taken comes back as alternatives. A sliver
+        // past the plane (the riser's noisy foot) is no box.
+        let reading_part = |p: &[u32]| {
+            (p.len() >= cfg.min_face_cells as usize)
+                .then(|| score_cut_part(p))
+                .flatten()
+        };
+        let stacked = step
+            .zip(up)
+            .filter(|(st, u)| {
+                cfg.blob_stack_max_tilt_deg > 0.0
+                    && st.stack.0.dot(u) >= cfg.blob_stack_max_tilt_deg.to_radians().cos()
+            })
+            .map(|(st, _)| {
+                let (lo, hi) = by_plane(st.stack, "stacked reading");
+                let scored = (reading_part(&lo), reading_part(&hi));
+                (lo, hi, scored)
+            });
         let parts = match step {
-            Some(Step { cut, sure: true }) => Some(by_plane(cut, "step")),
-            Some(Step { cut, sure: false }) => {
+            Some(Step {
+                cut, sure: true, ..
+            }) => {
+                let side = by_plane(cut, "step");
+                match stacked {
+                    Some((lo, hi, (ra, rb))) => {
+                        let side_scored = (reading_part(&side.0), reading_part(&side.1));
+                        let (st_shape, side_shape) = (
+                            cut_shape((&lo, &hi), (&ra, &rb)),
+                            cut_shape((&side.0, &side.1), (&side_scored.0, &side_scored.1)),
+                        );
+                        if dbg && blob.len() > 200 {
+                            log::debug!(
+                                "blob {b}.{pi} stacked {st_shape:.2} side by side {side_shape:.2}"
+                            );
+                        }
+                        if st_shape >= side_shape + cfg.blob_stack_margin {
+                            out.extend(lost([side_scored.0, side_scored.1]));
+                            Some((lo, hi))
+                        } else {
+                            out.extend(lost([ra, rb]));
+                            Some(side)
+                        }
+                    }
+                    None => Some(side),
+                }
+            }
+            Some(Step {
+                cut, sure: false, ..
+            }) => {
                 // A weak step: the whole object competes with its parts.
                 out.extend(score_part(&blob, &fr));
+                if let Some((_, _, (ra, rb))) = stacked {
+                    out.extend(lost([ra, rb]));
+                }
                 Some(by_plane(cut, "weak step"))
             }
             None => {
@@ -860,16 +951,6 @@ fn object_candidates(
                 // as boxes, beat the whole by `blob_profile_cut_margin` (a part of one box is
                 // as good a cuboid as the whole, so only a misfit whole gives way); the
                 // whole then competes with its parts.
-                // Shape alone (plane fit × silhouette IoU × depth consistency): a part may
-                // show fewer faces than the whole, which says nothing of the cut.
-                let shape = |r: &Raw| {
-                    let f = faces_factor(r.n_faces as usize, cfg);
-                    if f > 0.0 {
-                        r.score / f
-                    } else {
-                        0.0
-                    }
-                };
                 let try_profile = cut.is_none()
                     && !misfit
                     && depth < cfg.blob_max_cuts
@@ -885,19 +966,12 @@ fn object_candidates(
                 let profile = room.then(|| find_profile_cut(g, &fr, &blob, cfg)).flatten();
                 if let Some(c) = profile {
                     let (lo, hi) = by_plane(c, "profile");
-                    let part = |p: &[u32]| frame_of(g, p, cfg).and_then(|f| score_part(p, &f));
-                    let (ra, rb) = (part(&lo), part(&hi));
-                    // A part that scores as no box counts as 0.
-                    let (sa, sb) = (
-                        ra.as_ref().map_or(0.0, &shape),
-                        rb.as_ref().map_or(0.0, &shape),
-                    );
-                    let mean = (sa * lo.len() as f64 + sb * hi.len() as f64)
-                        / (lo.len() + hi.len()) as f64;
+                    let (ra, rb) = (score_cut_part(&lo), score_cut_part(&hi));
+                    let mean = cut_shape((&lo, &hi), (&ra, &rb));
                     // `room` held: the whole is a box.
-                    let w = whole.as_ref().and_then(|w| w.as_ref()).map_or(0.0, &shape);
+                    let w = whole.as_ref().and_then(|w| w.as_ref()).map_or(0.0, shape);
                     if dbg && blob.len() > 200 {
-                        log::debug!("blob {b}.{pi} profile parts {sa:.2} {sb:.2} whole {w:.2}");
+                        log::debug!("blob {b}.{pi} profile parts {mean:.2} whole {w:.2}");
                     }
                     if mean >= w + cfg.blob_profile_cut_margin {
                         out.extend(whole.flatten());
@@ -909,10 +983,7 @@ fn object_candidates(
                     // The whole stands; its parts may still be the right reading (two
                     // boxes stacked whose union is as good a cuboid).
                     if cfg.blob_profile_cut_alternatives {
-                        out.extend([ra, rb].into_iter().flatten().map(|r| Raw {
-                            lost_cut: true,
-                            ..r
-                        }));
+                        out.extend(lost([ra, rb]));
                     }
                 }
                 whole_scored = whole;

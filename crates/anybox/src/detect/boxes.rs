@@ -630,8 +630,9 @@ pub(crate) struct Raw {
     pub bx: OrientedBox,
     /// Plane normal of the largest face.
     pub normal: Vector3<f64>,
-    /// A part of a profile cut that lost to the whole object it would have cut: an
-    /// alternative reading only (see [`DetectConfig::blob_profile_cut_alternatives`]).
+    /// A part of a cut not made: a profile cut that lost to the whole object it would have
+    /// cut ([`DetectConfig::blob_profile_cut_alternatives`]) or a step's reading not taken
+    /// ([`DetectConfig::blob_stack_margin`]). An alternative reading only.
     pub lost_cut: bool,
 }
 

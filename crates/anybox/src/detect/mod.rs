@@ -22,9 +22,10 @@
 //!    irregular, too small and too large segments rejected; a cuboid fitted per group and scored
 //!    by plane fit × silhouette IoU × depth consistency (the paper's filter);
 //! 4. `blobs`: the same cuboid fit and score for every connected convex object (depth
-//!    continuity, cut at concave creases, at steps between touching boxes, at changes of
-//!    plain colour across all its faces and where its cross-section steps along a box axis),
-//!    which finds isolated boxes whose faces the grouping could not tie together.
+//!    continuity, cut at concave creases, at steps between touching boxes (read side by
+//!    side and stacked: [`DetectConfig::blob_stack_max_tilt_deg`]), at changes of plain
+//!    colour across all its faces and where its cross-section steps along a box axis), which
+//!    finds isolated boxes whose faces the grouping could not tie together.
 //!
 //! Object-, surface- and colour-level candidates then compete by score; a coarse candidate with
 //! a seam between coplanar colour patches (flush cartons), one whose parallel colour patches
@@ -46,7 +47,8 @@
 //! evidence factor that grows with the mask's size ([`DetectConfig::evidence_half_pixels`]).
 //! A few candidates that lost a split decision come back as alternative readings, flagged
 //! and scored low ([`DetectConfig::alternatives_max`]), as do the parts of a profile cut that
-//! lost to its whole ([`DetectConfig::blob_profile_cut_alternatives`]).
+//! lost to its whole ([`DetectConfig::blob_profile_cut_alternatives`]) and those of a step's
+//! reading not taken ([`DetectConfig::blob_stack_margin`]).
 //!
 //! Every threshold is a documented field of [`DetectConfig`] (`Config::detect`). The detector is
 //! deterministic: the same input and config give the same detections in the same order.
@@ -1210,6 +1212,38 @@ pub struct DetectConfig {
     pub blob_weak_step_factor: f64,
     /// ... when each plane holds at least this fraction of the face's cells. Default 0.15.
     pub blob_step_min_fraction: f64,
+    /// A step (`blob_step_factor`, `blob_weak_step_factor`) between two planes that face the
+    /// support's up within this angle, degrees, is read two ways: two boxes side by side (the
+    /// step's own cut, between the planes' cells along another box axis) and one box stacked
+    /// on another (the object cut across the up just past the farther plane: what stands out
+    /// of it is the upper box). With flush faces of one colour the two look the same. A weak
+    /// step adds the stacked parts as alternative readings; for a sure one see
+    /// `blob_stack_margin`. 0 disables (a step is then only cut side by side). Default 20,
+    /// not varied (bench, 48 views, mean AP@0.5 against 0 over six groups of six seeds, README
+    /// item 56: tables +0.004 to +0.024 per group, pallets −0.003 to +0.002, shelves −0.002
+    /// to +0.0004, all sets +0.0034 to +0.0138; seeds 127 / 131 / 137 / 139 / 149 / 151,
+    /// drawn after it was fixed, tables +0.0114 / +0.0090 / +0.0112 with 0 / 8 / 32
+    /// distractors, all sets +0.0053).
+    pub blob_stack_max_tilt_deg: f64,
+    /// A sure step read both ways (`blob_stack_max_tilt_deg`) is cut the stacked way when
+    /// those two parts, scored as boxes, beat the side-by-side parts by at least this: their
+    /// shape (score over face-count factor) weighted by cells, as `blob_profile_cut_margin`
+    /// compares a cut with its whole. The reading not taken gives its parts as alternative
+    /// readings ([`Detection::alternative`], scored `alternative_score_factor` times their own
+    /// score, on top of `alternatives_max`). 1 or more: always side by side. Default 0.05
+    /// (bench, 48 views, all sets' mean AP@0.5, the stacked cut at a quarter of the gap,
+    /// against 1: +0.0022 and +0.0044 on seeds 41–61 and 97–113, where it was chosen; 0 gave
+    /// +0.0011 and +0.0032. With `blob_stack_cut_tols` 1 too, against that first version (1,
+    /// a quarter of the gap): +0.0056 and +0.0059 there, +0.0013, −0.0017 and +0.0025 on
+    /// seeds 2026–13, 17–37 and 67–89).
+    pub blob_stack_margin: f64,
+    /// The stacked reading (`blob_stack_max_tilt_deg`) cuts this many plane tolerances past
+    /// the farther plane's nearest cell (at most halfway to the nearer plane): the upper
+    /// box's sides start at that plane, and a cut further up would give their foot to the
+    /// lower box. Default 1 (bench, 48 views, all sets' mean AP@0.5 against a quarter of the
+    /// gap, with `blob_stack_margin` 0.05: +0.0034 on seeds 41–61 (tables +0.0050 / +0.0063
+    /// / +0.0044), +0.0015 on 97–113; with `blob_stack_margin` 1: +0.0009 on 41–61).
+    pub blob_stack_cut_tols: f64,
     /// An object is also cut in two where its colour changes across it by at least this
     /// much on every face the cut crosses: the norm of the RGB difference of the two sides
     /// over their mean norm (boxes of different colours end to end or stacked with flush
@@ -1621,6 +1655,9 @@ impl Default for DetectConfig {
             blob_profile_cut_occluder_share: 0.125,
             blob_weak_step_factor: 1.0,
             blob_step_min_fraction: 0.15,
+            blob_stack_max_tilt_deg: 20.0,
+            blob_stack_margin: 0.05,
+            blob_stack_cut_tols: 1.0,
             blob_support_gap_factor: 1.5,
             blob_normal_tol_deg: 20.0,
             blob_min_face_fraction: 0.05,
@@ -3034,7 +3071,8 @@ fn select(
     col: Vec<boxes::Raw>,
     cfg: &DetectConfig,
 ) -> (Vec<boxes::Raw>, Vec<boxes::Raw>) {
-    // The parts of lost profile cuts are alternatives only.
+    // The parts of cuts not made (lost profile cuts, step readings not taken) are
+    // alternatives only.
     let (cut_parts, objects): (Vec<_>, Vec<_>) = objects.into_iter().partition(|c| c.lost_cut);
     let planes: Vec<FacePlane> = col.iter().map(|_| FacePlane::new()).collect();
     // The two are independent (the colour patches' planes, fitted once, are shared).
@@ -3148,7 +3186,7 @@ fn alternatives(
         sizes.push(c.cells.len());
     }
     let mut out = Vec::new();
-    // Parts of lost profile cuts come on top of `alternatives_max`.
+    // Parts of cuts not made come on top of `alternatives_max`.
     let mut counted = 0;
     for c in lost {
         if !c.lost_cut && counted >= max {
