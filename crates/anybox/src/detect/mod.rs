@@ -1235,7 +1235,8 @@ pub struct DetectConfig {
     /// against 1: +0.0022 and +0.0044 on seeds 41–61 and 97–113, where it was chosen; 0 gave
     /// +0.0011 and +0.0032. With `blob_stack_cut_tols` 1 too, against that first version (1,
     /// a quarter of the gap): +0.0056 and +0.0059 there, +0.0013, −0.0017 and +0.0025 on
-    /// seeds 2026–13, 17–37 and 67–89).
+    /// seeds 2026–13, 17–37 and 67–89. 0.1 against 0.05: +0.0009 on 17–37, −0.0011 on
+    /// 41–61).
     pub blob_stack_margin: f64,
     /// The stacked reading (`blob_stack_max_tilt_deg`) cuts this many plane tolerances past
     /// the farther plane's nearest cell (at most halfway to the nearer plane): the upper
