@@ -795,8 +795,9 @@ fn object_candidates(
         score_in_frame(g, part, fr, labels, off, cfg)
     };
     let score_part = |part: &[u32], fr: &Frame| score_in(part, fr, cfg);
-    // A part of a cut scored as a box in its own frame.
-    let score_cut_part = |p: &[u32]| frame_of(g, p, cfg).and_then(|f| score_part(p, &f));
+    // A part of a step's cut scored as a box in its own frame; a sliver past the plane (the
+    // riser's noisy foot) is no box: `score_whole` asks for `min_face_cells`.
+    let reading_part = |p: &[u32]| score_whole(g, p, labels, off, cfg);
     // Shape alone (plane fit × silhouette IoU × depth consistency): a part may show fewer
     // faces than the whole, which says nothing of the cut.
     let shape = |r: &Raw| {
@@ -866,13 +867,7 @@ fn object_candidates(
         // by side (cut between the planes' cells) or one stacked on the other (cut across the
         // up, past the farther plane). Flush faces of one colour look the same either way; a
         // sure step is cut the stacked way when those parts are the better boxes by
-        // `blob_stack_margin`, and the reading not taken comes back as alternatives. A sliver
-        // past the plane (the riser's noisy foot) is no box.
-        let reading_part = |p: &[u32]| {
-            (p.len() >= cfg.min_face_cells as usize)
-                .then(|| score_cut_part(p))
-                .flatten()
-        };
+        // `blob_stack_margin`, and the reading not taken comes back as alternatives.
         let stacked = step
             .zip(up)
             .filter(|(st, u)| {
@@ -966,7 +961,8 @@ fn object_candidates(
                 let profile = room.then(|| find_profile_cut(g, &fr, &blob, cfg)).flatten();
                 if let Some(c) = profile {
                     let (lo, hi) = by_plane(c, "profile");
-                    let (ra, rb) = (score_cut_part(&lo), score_cut_part(&hi));
+                    let part = |p: &[u32]| frame_of(g, p, cfg).and_then(|f| score_part(p, &f));
+                    let (ra, rb) = (part(&lo), part(&hi));
                     let mean = cut_shape((&lo, &hi), (&ra, &rb));
                     // `room` held: the whole is a box.
                     let w = whole.as_ref().and_then(|w| w.as_ref()).map_or(0.0, shape);
