@@ -2672,10 +2672,26 @@ fn assert_table_box_joined_only_with_rule(
 ) {
     let v = table_d0_view_of(seed, 48, scene);
     let gt = scene_box(&v, k, sorted_mm, min_visib);
-    let with = best_detection_estimated(&v, gt, &DetectConfig::default()).1;
+    let on = DetectConfig::default();
+    assert_estimated_only_with(&v, gt, &on, without, (with_min, without_max), what);
+}
+
+/// The default estimator's box from the best detection of `gt` reaches 3D IoU `with_min`
+/// under `on` and stays below `without_max` under `off` (`what` names the rule `off` turns
+/// off). Returns the best detection under `on`.
+fn assert_estimated_only_with(
+    v: &anybox_synth::SynthView,
+    gt: &anybox_synth::SynthBox,
+    on: &DetectConfig,
+    off: &DetectConfig,
+    (with_min, without_max): (f64, f64),
+    what: &str,
+) -> Detection {
+    let (d, with) = best_detection_estimated(v, gt, on);
     assert!(with > with_min, "3D IoU with {what} {with:.2}");
-    let off = best_detection_estimated(&v, gt, without).1;
-    assert!(off < without_max, "3D IoU without {what} {off:.2}");
+    let without = best_detection_estimated(v, gt, off).1;
+    assert!(without < without_max, "3D IoU without {what} {without:.2}");
+    d
 }
 
 #[test]
@@ -3010,12 +3026,8 @@ fn the_rest_of_a_box_cut_from_its_piece_is_joined_to_it() {
     // Measured: mask IoU 0.968 with the join, 0.611 without; the estimate's 3D IoU 0.925
     // with it, 0.184 without.
     assert_found_only_with_rule(&v, &b.mask_visib, &off, 0.9, 0.7, "without the join");
-    let (with, with_3d) = best_detection_estimated(&v, b, &DetectConfig::default());
-    let (_, without_3d) = best_detection_estimated(&v, b, &off);
-    assert!(
-        with_3d > 0.8 && without_3d < 0.5,
-        "3D IoU {with_3d:.3} with the join, {without_3d:.3} without"
-    );
+    let on = DetectConfig::default();
+    let with = assert_estimated_only_with(&v, b, &on, &off, (0.8, 0.5), "the join");
     assert_eq!(with.n_faces, 2, "the remain was the box's second face");
 }
 
@@ -3068,12 +3080,7 @@ fn a_box_stacked_on_a_wider_one_of_its_colour_is_cut_from_it() {
     let found = best_primary_ious(&v, &[&upper.mask_visib], &on)[0];
     assert!(found > 0.75, "primary mask IoU {found:.3}");
     assert_found_only_with_rule(&v, &upper.mask_visib, &off, 0.75, 0.5, "side by side only");
-    let (_, with_3d) = best_detection_estimated(&v, upper, &on);
-    let (_, without_3d) = best_detection_estimated(&v, upper, &off);
-    assert!(
-        with_3d > 0.6 && without_3d < 0.4,
-        "3D IoU {with_3d:.3} stacked, {without_3d:.3} side by side only"
-    );
+    assert_estimated_only_with(&v, upper, &on, &off, (0.6, 0.4), "the stacked reading");
 }
 
 #[test]
