@@ -648,13 +648,15 @@ type Admit<'a> = dyn Fn(&[Vec<usize>], usize, usize, usize) -> bool + 'a;
 /// [`DetectConfig::strip_alternatives`], so is every group of two or three faces with the
 /// coplanar strips it touches taken in; with [`DetectConfig::band_face_alternatives`], so is
 /// every such group with each face that is only a band grown into the wider coplanar region
-/// past it, and the group it grew from is scored down.
+/// past it, and the group it grew from is scored down. `up`: the support's up, where known
+/// (which faces are tops, for [`DetectConfig::curved_veto_max_on_plane`]).
 pub(crate) fn group_candidates(
     g: &Grid,
     labels: &[u32],
     regions: &[Region],
     on_support: &[bool],
     colour_level: bool,
+    up: Option<Vector3<f64>>,
     cfg: &DetectConfig,
 ) -> Vec<Raw> {
     // The alternatives are for colour patches only (see each flag's documentation).
@@ -737,10 +739,44 @@ pub(crate) fn group_candidates(
             && reg.inlier_frac >= cfg.min_plane_inlier_frac
             && reg.normal_spread_deg <= cfg.max_normal_spread_deg
     };
-    // A curved surface `c` vetoes face `f` when it is large enough beside it and really bent.
+    // Faces touching a face across an edge (perpendicular): their box is read by the group.
+    let sin_edge = cfg.perpendicular_tol_deg.to_radians().sin();
+    let mut has_edge = vec![false; n];
+    for (&(a, b), &c) in &contact {
+        let (a, b) = (a as usize, b as usize);
+        if c >= cfg.min_contact_cells
+            && face[a]
+            && face[b]
+            && regions[a].normal.dot(&regions[b].normal).abs() <= sin_edge
+        {
+            has_edge[a] = true;
+            has_edge[b] = true;
+        }
+    }
+    // A "curved" surface smaller than a top seen alone, whose cells lie on the top's own
+    // plane, is flat there: a tape band across a carton top, whose narrow halves' normals
+    // are noise (`curved_veto_max_on_plane`).
+    let cos_top = cfg.halves_top_max_tilt_deg.to_radians().cos();
+    let on_face_plane = |c: usize, f: usize| {
+        let top = up.is_some_and(|u| regions[f].normal.dot(&u).abs() >= cos_top);
+        if !top || has_edge[f] {
+            return false;
+        }
+        let on = cells[c]
+            .iter()
+            .filter(|&&i| {
+                regions[f].dist(&g.p[i as usize]).abs() <= plane_tol(cfg, g.z[i as usize] as f64)
+            })
+            .count();
+        regions[c].n < regions[f].n
+            && on as f64 >= cfg.curved_veto_max_on_plane * cells[c].len() as f64
+    };
+    // A curved surface `c` vetoes face `f` when it is large enough beside it, really bent, and
+    // not lying on the face.
     let vetoes = |c: usize, f: usize| {
         regions[c].n as f64 >= cfg.curved_veto_min_ratio * regions[f].n as f64
             && regions[c].bend_deg >= cfg.curved_veto_min_bend_deg
+            && !on_face_plane(c, f)
     };
     let mut touches_curved = vec![false; n];
     for (&(a, b), &c) in &contact {
