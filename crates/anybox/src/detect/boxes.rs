@@ -739,16 +739,13 @@ pub(crate) fn group_candidates(
             && reg.inlier_frac >= cfg.min_plane_inlier_frac
             && reg.normal_spread_deg <= cfg.max_normal_spread_deg
     };
+    let sin_perp = cfg.perpendicular_tol_deg.to_radians().sin();
+    let perp = |a: usize, b: usize| regions[a].normal.dot(&regions[b].normal).abs() <= sin_perp;
     // Faces touching a face across an edge (perpendicular): their box is read by the group.
-    let sin_edge = cfg.perpendicular_tol_deg.to_radians().sin();
     let mut has_edge = vec![false; n];
     for (&(a, b), &c) in &contact {
         let (a, b) = (a as usize, b as usize);
-        if c >= cfg.min_contact_cells
-            && face[a]
-            && face[b]
-            && regions[a].normal.dot(&regions[b].normal).abs() <= sin_edge
-        {
+        if c >= cfg.min_contact_cells && face[a] && face[b] && perp(a, b) {
             has_edge[a] = true;
             has_edge[b] = true;
         }
@@ -759,7 +756,7 @@ pub(crate) fn group_candidates(
     let cos_top = cfg.halves_top_max_tilt_deg.to_radians().cos();
     let on_face_plane = |c: usize, f: usize| {
         let top = up.is_some_and(|u| regions[f].normal.dot(&u).abs() >= cos_top);
-        if !top || has_edge[f] {
+        if !top || has_edge[f] || regions[c].n >= regions[f].n {
             return false;
         }
         let on = cells[c]
@@ -768,8 +765,7 @@ pub(crate) fn group_candidates(
                 regions[f].dist(&g.p[i as usize]).abs() <= plane_tol(cfg, g.z[i as usize] as f64)
             })
             .count();
-        regions[c].n < regions[f].n
-            && on as f64 >= cfg.curved_veto_max_on_plane * cells[c].len() as f64
+        on as f64 >= cfg.curved_veto_max_on_plane * cells[c].len() as f64
     };
     // A curved surface `c` vetoes face `f` when it is large enough beside it, really bent, and
     // not lying on the face.
@@ -791,8 +787,6 @@ pub(crate) fn group_candidates(
         }
     }
     contact.retain(|&(a, b), _| face[a as usize] && face[b as usize]);
-    let sin_perp = cfg.perpendicular_tol_deg.to_radians().sin();
-    let perp = |a: usize, b: usize| regions[a].normal.dot(&regions[b].normal).abs() <= sin_perp;
     // Extent of a face's cells along a direction (robust); a face may be several regions
     // (one that colour cut in pieces).
     let extent_of = |rs: &[usize], e: &Vector3<f64>| -> f64 {
