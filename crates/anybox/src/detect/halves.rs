@@ -30,7 +30,8 @@
 //! top's short side, or halves too square for `halves_min_aspect`. There, a layer of cartons
 //! gives no order to pair along, so only a pair standing alone is joined: two patches touching
 //! along a whole side, each the other's only candidate, with the surface ending beyond all
-//! their other sides.
+//! their other sides. Where the support's up is known, it too takes only tops
+//! (`halves_isolated_sides`): the fronts of two flush cartons side by side are such a pair.
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
@@ -233,7 +234,8 @@ impl Patches {
     }
 
     /// The second pass ([`DetectConfig::halves_isolated_pairs`]): two patches left unpaired, of
-    /// any aspect, touching along a whole side (either of their sides), each the other's only such
+    /// any aspect (tops only where up is known: [`DetectConfig::halves_isolated_sides`]),
+    /// touching along a whole side (either of their sides), each the other's only such
     /// neighbour, with the surface ending beyond the pair's six other sides. Sets `parent` as
     /// [`Patches::pair_chains`] does; returns whether anything was paired.
     fn pair_isolated(&self, g: &Grid, parent: &mut [usize], cfg: &DetectConfig) -> bool {
@@ -248,6 +250,7 @@ impl Patches {
         let rects: Vec<Half> = (0..n)
             .filter(|&l| !used[l])
             .filter_map(|l| self.rects[l].clone())
+            .filter(|h| cfg.halves_isolated_sides || is_top(h, self.up, cfg) != Some(false))
             .collect();
         // Every touching pair, with the unit in-plane direction from the first to the second.
         let mut pairs: Vec<(usize, usize, Vector3<f64>)> = Vec::new();
@@ -370,10 +373,14 @@ fn seam_frame(h: &Half, towards: &Vector3<f64>) -> Half {
     }
 }
 
+/// Whether `h` is a top (within `halves_top_max_tilt_deg` of `up`); `None` without an up.
+fn is_top(h: &Half, up: Option<Vector3<f64>>, cfg: &DetectConfig) -> Option<bool> {
+    up.map(|u| h.normal.dot(&u).abs() >= cfg.halves_top_max_tilt_deg.to_radians().cos())
+}
+
 /// Whether a region's rectangle is elongated enough to be a half.
 fn elongated(h: &Half, up: Option<Vector3<f64>>, cfg: &DetectConfig) -> bool {
-    let top = up.map(|u| h.normal.dot(&u).abs() >= cfg.halves_top_max_tilt_deg.to_radians().cos());
-    let min_aspect = match top {
+    let min_aspect = match is_top(h, up, cfg) {
         Some(true) if cfg.halves_top_min_aspect > 0.0 => cfg.halves_top_min_aspect,
         Some(false) if !cfg.halves_side_chains => return false,
         _ => cfg.halves_min_aspect,

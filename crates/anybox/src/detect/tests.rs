@@ -1096,6 +1096,30 @@ fn a_tape_band_across_flush_tops_does_not_veto_them() {
 }
 
 #[test]
+fn the_fronts_of_two_flush_cartons_are_no_halves_of_one_face() {
+    // Generated pallet (seed 149, 48 scenes, scene 42: `SEED=149 ONLY=pallet VIEW=42` with
+    // `detect_dev 48`): the top layer is two 409 × 288 × 386 mm cartons side by side, tops
+    // and fronts flush, each top with its tape. The two fronts are coplanar patches of one
+    // colour and size touching along a whole side with the surface ending beyond the rest:
+    // an isolated pair, which joined them as the halves of one face, and the two cartons
+    // came out as one box.
+    let v = pallet_view(149, 48, 42);
+    let cartons = scene_masks(&v, &[4, 5], [288.0, 386.0, 409.0], 0.5);
+    // Premise: with side faces paired too, neither is found.
+    assert_all_found_only_with_rule(
+        &v,
+        &cartons,
+        &DetectConfig {
+            halves_isolated_sides: true,
+            ..DetectConfig::default()
+        },
+        0.8,
+        0.6,
+        "with side faces paired as halves",
+    );
+}
+
+#[test]
 fn background_seen_through_a_frame_gives_no_detection() {
     // A panel standing behind a frame of two posts and a crossbar, as a wall behind shelf
     // uprights and boards: the panel's visible patches are flat rectangles, but nearer
