@@ -23,8 +23,10 @@
 //!
 //! Two plain boxes (no flap seam) side by side look the same from above. Where an end face
 //! shows, the joint between them runs on down it and a flap seam does not, so two patches
-//! whose line is seen on an end face are not linked (`halves_joint_check`). Where no end face
-//! shows, such a pair is taken for one carton: the image holds nothing that tells them apart.
+//! whose line is seen on an end face are not linked (`halves_joint_check`), and neither are
+//! two whose end face is two colour patches cut at the line (`halves_joint_labels`: the
+//! fronts of two cartons, where the joint is too faint to see). Where no end face shows, such
+//! a pair is taken for one carton: the image holds nothing that tells them apart.
 //!
 //! A second pass (`halves_isolated_pairs`) takes the tops the chains miss: a seam along the
 //! top's short side, or halves too square for `halves_min_aspect`. There, a layer of cartons
@@ -95,7 +97,11 @@ pub(crate) fn pair_halves(
             })
         })
         .collect();
-    let patches = Patches { rects, up };
+    let patches = Patches {
+        rects,
+        up,
+        labels: &*labels,
+    };
     let mut parent: Vec<usize> = (0..n).collect();
     let mut joined = patches.pair_chains(g, &mut parent, cfg);
     if cfg.halves_isolated_pairs {
@@ -110,12 +116,14 @@ pub(crate) fn pair_halves(
 
 /// The colour-level regions both passes pair: each label's rectangle, `None` where it is no
 /// face, `bridge_tape` moved cells into it, it has tape along its middle, or it is degenerate.
-struct Patches {
+struct Patches<'a> {
     rects: Vec<Option<Half>>,
     up: Option<Vector3<f64>>,
+    /// The colour-level labels per cell (for [`joint_split`]).
+    labels: &'a [u32],
 }
 
-impl Patches {
+impl Patches<'_> {
     /// The first pass: elongated halves side by side across their long sides, in chains paired
     /// off from a clean end (see the module doc). Sets `parent` of each pair's second label to
     /// its first; returns whether anything was paired.
@@ -153,7 +161,7 @@ impl Patches {
             for a in 0..halves.len() {
                 for s in 0..2 {
                     if let Some((b, _)) = side[a][s] {
-                        if joint_seen(g, &halves[a], &halves[b]) {
+                        if self.joint(g, &halves[a], &halves[b], cfg) {
                             joint[a][s] = true;
                             side[a][s] = None;
                         }
@@ -233,6 +241,14 @@ impl Patches {
         joined
     }
 
+    /// Whether the line between `a` and `b` is seen to be a joint between two cartons: as a
+    /// seam running on down an end face ([`joint_seen`]), or, with
+    /// [`DetectConfig::halves_joint_labels`], as a cut between two colour patches there
+    /// ([`joint_split`]).
+    fn joint(&self, g: &Grid, a: &Half, b: &Half, cfg: &DetectConfig) -> bool {
+        joint_seen(g, a, b) || (cfg.halves_joint_labels && joint_split(g, self.labels, a, b))
+    }
+
     /// The second pass ([`DetectConfig::halves_isolated_pairs`]): two patches left unpaired, of
     /// any aspect (tops only where up is known: [`DetectConfig::halves_isolated_sides`]),
     /// touching along a whole side (either of their sides), each the other's only such
@@ -282,7 +298,7 @@ impl Patches {
                     && side_ends(&-side)
             };
             let isolated = ends(&ha, &out) && ends(&hb, &-out);
-            let joint = cfg.halves_joint_check && joint_seen(g, &ha, &hb);
+            let joint = cfg.halves_joint_check && self.joint(g, &ha, &hb, cfg);
             if log::log_enabled!(log::Level::Debug) {
                 let q =
                     |h: &Half| g.k.project(&h.centre.into()).unwrap_or_default() * g.step as f64;
@@ -495,6 +511,39 @@ fn neighbour(a: &Half, b: &Half, cfg: &DetectConfig) -> Option<(usize, f64)> {
     Some((usize::from(across > 0.0), err))
 }
 
+/// Grid bounds `(u0, u1, v0, v1)` of the slab around the line between `a` and `b` (in `a`'s
+/// frame): `half_across_mm` either side of it, the longer half's length plus 30 mm, down to
+/// 150 mm below the top; `None` where a corner lies behind the camera.
+fn end_slab(
+    g: &Grid,
+    a: &Half,
+    b: &Half,
+    half_across_mm: f64,
+) -> Option<(usize, usize, usize, usize)> {
+    let m = (a.centre + b.centre) / 2.0;
+    let half_len = a.len_mm.max(b.len_mm) / 2.0;
+    let (mut u0, mut v0, mut u1, mut v1) = (f64::INFINITY, f64::INFINITY, 0f64, 0f64);
+    for sx in [-1.0, 1.0] {
+        for sy in [-1.0, 1.0] {
+            for dz in [0.0, -150.0] {
+                let p = m
+                    + a.across * (half_across_mm * sx)
+                    + a.long * ((half_len + 30.0) * sy)
+                    + a.normal * dz;
+                let q = g.k.project(&p.into()).filter(|_| p.z > 1.0)?;
+                (u0, v0, u1, v1) = (u0.min(q.x), v0.min(q.y), u1.max(q.x), v1.max(q.y));
+            }
+        }
+    }
+    let clamp = |x: f64, n: usize| x.clamp(0.0, n as f64 - 1.0) as usize;
+    Some((
+        clamp(u0, g.w),
+        clamp(u1, g.w),
+        clamp(v0, g.h),
+        clamp(v1, g.h),
+    ))
+}
+
 /// Whether the line between halves `a` and `b` is seen to be the joint of two cartons: where
 /// it meets an end face (perpendicular to the long axis, below the top), a seam runs on down
 /// that face along the line: at least 4 cells of the face within 10 mm of the line, at least
@@ -504,27 +553,9 @@ fn joint_seen(g: &Grid, a: &Half, b: &Half) -> bool {
     let m = (a.centre + b.centre) / 2.0;
     let (across, long, up) = (a.across, a.long, a.normal);
     let half_len = a.len_mm.max(b.len_mm) / 2.0;
-    // Image bounds of the slab around the line: 25 mm either side, the top's length plus
-    // 30 mm, down to 150 mm below the top.
-    let (mut u0, mut v0, mut u1, mut v1) = (f64::INFINITY, f64::INFINITY, 0f64, 0f64);
-    for sx in [-1.0, 1.0] {
-        for sy in [-1.0, 1.0] {
-            for dz in [0.0, -150.0] {
-                let p = m + across * (25.0 * sx) + long * ((half_len + 30.0) * sy) + up * dz;
-                let Some(q) = g.k.project(&p.into()).filter(|_| p.z > 1.0) else {
-                    return false;
-                };
-                (u0, v0, u1, v1) = (u0.min(q.x), v0.min(q.y), u1.max(q.x), v1.max(q.y));
-            }
-        }
-    }
-    let clamp = |x: f64, n: usize| x.clamp(0.0, n as f64 - 1.0) as usize;
-    let (u0, u1, v0, v1) = (
-        clamp(u0, g.w),
-        clamp(u1, g.w),
-        clamp(v0, g.h),
-        clamp(v1, g.h),
-    );
+    let Some((u0, u1, v0, v1)) = end_slab(g, a, b, 25.0) else {
+        return false;
+    };
     // Cells and seam cells on the line (0) and beside it (1).
     let mut count = [[0usize; 2]; 2];
     for v in v0..=v1 {
@@ -551,6 +582,69 @@ fn joint_seen(g: &Grid, a: &Half, b: &Half) -> bool {
     }
     let frac = |[n, s]: [usize; 2]| s as f64 / n.max(1) as f64;
     count[0][0] >= 4 && frac(count[0]) >= 0.3 && frac(count[0]) >= 2.0 * frac(count[1])
+}
+
+/// Whether an end face of the pair `a`, `b` (a face along the line between them, 5–150 mm
+/// below their plane, at either end of the line) is two colour patches cut at the line: of
+/// its cells 15 mm to 0.8 of the narrower half's width from the line, those on each side
+/// number at least 40 and a quarter of the other side's, are mostly (≥ 60 %) of one label,
+/// and the two labels differ, each under a tenth of the other side's cells. A carton's own
+/// flap seam stops at the top's edge, and the face below it is one patch.
+fn joint_split(g: &Grid, labels: &[u32], a: &Half, b: &Half) -> bool {
+    let m = (a.centre + b.centre) / 2.0;
+    let (across, long, up) = (a.across, a.long, a.normal);
+    let half_len = a.len_mm.max(b.len_mm) / 2.0;
+    let reach = 0.8 * a.width_mm.min(b.width_mm);
+    if reach <= 15.0 {
+        return false;
+    }
+    let Some((u0, u1, v0, v1)) = end_slab(g, a, b, reach) else {
+        return false;
+    };
+    // Label counts per end (−long, +long) and side (−across, +across).
+    let mut counts: [[Vec<(u32, usize)>; 2]; 2] = Default::default();
+    for v in v0..=v1 {
+        for u in u0..=u1 {
+            let i = v * g.w + u;
+            if g.z[i] <= 0.0 || labels[i] == NONE {
+                continue;
+            }
+            let n = v3(&g.n[i]);
+            let d = v3(&g.p[i]) - m;
+            let along = d.dot(&long);
+            let off = d.dot(&across);
+            if n.dot(&long).abs() < 0.7
+                || !(15.0..=reach).contains(&off.abs())
+                || !(5.0..=150.0).contains(&-d.dot(&up))
+                || (along.abs() - half_len).abs() > 30.0
+            {
+                continue;
+            }
+            let c = &mut counts[usize::from(along > 0.0)][usize::from(off > 0.0)];
+            match c.iter_mut().find(|(l, _)| *l == labels[i]) {
+                Some(e) => e.1 += 1,
+                None => c.push((labels[i], 1)),
+            }
+        }
+    }
+    let dominant = |c: &[(u32, usize)]| {
+        let total: usize = c.iter().map(|e| e.1).sum();
+        c.iter()
+            .max_by_key(|e| e.1)
+            .filter(|e| total >= 40 && e.1 as f64 >= 0.6 * total as f64)
+            .map(|e| e.0)
+    };
+    let total = |c: &[(u32, usize)]| c.iter().map(|e| e.1).sum::<usize>();
+    // Cells of label `l` on side `c`.
+    let of = |c: &[(u32, usize)], l: u32| c.iter().find(|e| e.0 == l).map_or(0, |e| e.1);
+    counts.iter().any(|[lo, hi]| {
+        let (a, b) = (total(lo), total(hi));
+        let (Some(x), Some(y)) = (dominant(lo), dominant(hi)) else {
+            return false;
+        };
+        // Cut at the line: neither side's patch reaches across it.
+        4 * a.min(b) >= a.max(b) && x != y && 10 * of(hi, x) < b && 10 * of(lo, y) < a
+    })
 }
 
 /// The share of the points past a side that may lie on the plane where the plane ends

@@ -937,6 +937,17 @@ pub struct DetectConfig {
     /// face of theirs (the joint of two cartons; a flap seam stops at the top's edge).
     /// Default true.
     pub halves_joint_check: bool,
+    /// With `halves_joint_check`, the line between two patches is also a joint where an end
+    /// face of theirs is two colour patches cut at the line, each well seen and neither
+    /// reaching across it (the fronts of two flush cartons, their joint too faint for a seam;
+    /// the face below a flap seam is one). Seed 59, 48-view pallet view 15: two white taped
+    /// cartons' tops, a chain of two with clean ends, paired as one carton's halves (mask IoU
+    /// 0.58 and 0.35 → 0.98 and 0.98). Default true (bench, 48 views, six seed groups of
+    /// six seeds against false: pallets +0.0034 / +0.0000 / +0.0031 / +0.0014 / +0.0000 /
+    /// +0.0002, tables 0 except seeds 41–61 −0.0002 / −0.0008 / −0.0009, shelves 0; with
+    /// 12 cells a side instead of 40, a carton's own end face cut at its flap seam's line
+    /// (seed 137, pallet view 38, 20 and 19 cells) lost pallets 0.0014 on seeds 127–151).
+    pub halves_joint_labels: bool,
     /// Also pair two patches that are halves of a top cut across its short side, or not
     /// elongated enough for `halves_min_aspect` (a 120 × 300 mm top with its flap seam along
     /// the 120 mm side gives two 120 × 150 mm halves), when the pair stands alone: the two are
@@ -1632,6 +1643,7 @@ impl Default for DetectConfig {
             halves_min_ratio: 0.8,
             halves_gap_mm: 15.0,
             halves_joint_check: true,
+            halves_joint_labels: true,
             halves_isolated_pairs: true,
             halves_isolated_sides: false,
             halves_end_max_tilt_deg: 30.0,
