@@ -542,6 +542,16 @@ fn inside_convex(poly: &[Point2<f64>], p: &Point2<f64>) -> bool {
     s * cross(&poly[lo], &poly[hi]) >= 0.0
 }
 
+/// Whether a surface with unit `normal` is a top: within `halves_top_max_tilt_deg` of the
+/// support's `up`; `None` where up is not known.
+pub(crate) fn is_top(
+    normal: &Vector3<f64>,
+    up: Option<Vector3<f64>>,
+    cfg: &DetectConfig,
+) -> Option<bool> {
+    up.map(|u| normal.dot(&u).abs() >= cfg.halves_top_max_tilt_deg.to_radians().cos())
+}
+
 /// Whether a region can be a box face: big enough, planar, not curved.
 pub(crate) fn is_face(r: &Region, cfg: &DetectConfig) -> bool {
     r.n >= cfg.min_face_cells as usize
@@ -753,10 +763,11 @@ pub(crate) fn group_candidates(
     // A "curved" surface smaller than a top seen alone, whose cells lie on the top's own
     // plane, is flat there: a tape band across a carton top, whose narrow halves' normals
     // are noise (`curved_veto_max_on_plane`).
-    let cos_top = cfg.halves_top_max_tilt_deg.to_radians().cos();
     let on_face_plane = |c: usize, f: usize| {
-        let top = up.is_some_and(|u| regions[f].normal.dot(&u).abs() >= cos_top);
-        if !top || has_edge[f] || regions[c].n >= regions[f].n {
+        if is_top(&regions[f].normal, up, cfg) != Some(true)
+            || has_edge[f]
+            || regions[c].n >= regions[f].n
+        {
             return false;
         }
         let on = cells[c]

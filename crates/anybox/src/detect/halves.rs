@@ -37,7 +37,7 @@
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
-use super::boxes::{is_face, robust_range, v3};
+use super::boxes::{is_face, is_top, robust_range, v3};
 use super::grid::Grid;
 use super::regions::{compact_labels, plane_tol, Region, NONE};
 use super::DetectConfig;
@@ -266,7 +266,7 @@ impl Patches<'_> {
         let rects: Vec<Half> = (0..n)
             .filter(|&l| !used[l])
             .filter_map(|l| self.rects[l].clone())
-            .filter(|h| cfg.halves_isolated_sides || is_top(h, self.up, cfg) != Some(false))
+            .filter(|h| cfg.halves_isolated_sides || is_top(&h.normal, self.up, cfg) != Some(false))
             .collect();
         // Every touching pair, with the unit in-plane direction from the first to the second.
         let mut pairs: Vec<(usize, usize, Vector3<f64>)> = Vec::new();
@@ -389,14 +389,9 @@ fn seam_frame(h: &Half, towards: &Vector3<f64>) -> Half {
     }
 }
 
-/// Whether `h` is a top (within `halves_top_max_tilt_deg` of `up`); `None` without an up.
-fn is_top(h: &Half, up: Option<Vector3<f64>>, cfg: &DetectConfig) -> Option<bool> {
-    up.map(|u| h.normal.dot(&u).abs() >= cfg.halves_top_max_tilt_deg.to_radians().cos())
-}
-
 /// Whether a region's rectangle is elongated enough to be a half.
 fn elongated(h: &Half, up: Option<Vector3<f64>>, cfg: &DetectConfig) -> bool {
-    let min_aspect = match is_top(h, up, cfg) {
+    let min_aspect = match is_top(&h.normal, up, cfg) {
         Some(true) if cfg.halves_top_min_aspect > 0.0 => cfg.halves_top_min_aspect,
         Some(false) if !cfg.halves_side_chains => return false,
         _ => cfg.halves_min_aspect,
@@ -627,14 +622,13 @@ fn joint_split(g: &Grid, labels: &[u32], a: &Half, b: &Half) -> bool {
             }
         }
     }
+    let total = |c: &[(u32, usize)]| c.iter().map(|e| e.1).sum::<usize>();
     let dominant = |c: &[(u32, usize)]| {
-        let total: usize = c.iter().map(|e| e.1).sum();
         c.iter()
             .max_by_key(|e| e.1)
-            .filter(|e| total >= 40 && e.1 as f64 >= 0.6 * total as f64)
+            .filter(|e| total(c) >= 40 && e.1 as f64 >= 0.6 * total(c) as f64)
             .map(|e| e.0)
     };
-    let total = |c: &[(u32, usize)]| c.iter().map(|e| e.1).sum::<usize>();
     // Cells of label `l` on side `c`.
     let of = |c: &[(u32, usize)], l: u32| c.iter().find(|e| e.0 == l).map_or(0, |e| e.1);
     counts.iter().any(|[lo, hi]| {
